@@ -1,0 +1,234 @@
+"""Collision geometry MJX can afford, derived from an object's meshes and cached on disk by content.
+
+Each mesh file of a link becomes convex pieces (object frame, unscaled):
+  * a convex hull with at most ``max_hull_vertices`` vertices (MJX's SAT wants < 32 for convex-convex);
+  * a thin oriented box where the hull cannot be computed (coplanar or degenerate meshes);
+  * for handles (non-convex pieces that matter for grasping), an approximate convex decomposition (CoACD),
+    so fingers can wrap behind a bar instead of meeting a filled hull.
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dragmesh2_jax.assets.gapartnet import Link, MeshRef
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.io import atomic_write_bytes, cache_dir, hash_files
+
+GEOMETRY_VERSION = "1"
+MIN_BOX_HALF = 0.002  # m (unscaled object units): half-thickness of boxes built for flat pieces
+
+
+@dataclass(frozen=True)
+class ConvexPiece:
+    """A convex hull (``vertices``, object frame) or, when ``box_half`` is set, an oriented box with centre
+    ``box_pos``, rotation ``box_rot`` (3x3) and half sizes ``box_half``."""
+
+    vertices: np.ndarray = field(repr=False)
+    box_pos: np.ndarray | None = None
+    box_rot: np.ndarray | None = field(default=None, repr=False)
+    box_half: np.ndarray | None = None
+
+    @property
+    def is_box(self) -> bool:
+        return self.box_half is not None
+
+    @property
+    def num_vertices(self) -> int:
+        return 8 if self.is_box else len(self.vertices)
+
+    def corners(self) -> np.ndarray:
+        """Points spanning the piece (hull vertices or the 8 box corners), object frame."""
+        if not self.is_box:
+            return self.vertices
+        s = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
+        return self.box_pos + (s * self.box_half) @ self.box_rot.T
+
+
+def _load_mesh(path: Path):
+    import trimesh
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            logging.getLogger("trimesh").setLevel(logging.ERROR)
+            mesh = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
+    except Exception as e:
+        raise DragMeshError(f"{path}: cannot read mesh ({type(e).__name__}: {e})") from None
+    v = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
+    f = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
+    if len(v) and not np.all(np.isfinite(v)):
+        raise DragMeshError(f"{path}: mesh has non-finite vertices")
+    return v, f
+
+
+def _transform(v: np.ndarray, T: np.ndarray) -> np.ndarray:
+    return v @ T[:3, :3].T + T[:3, 3]
+
+
+def mesh_files(link: Link) -> list[MeshRef]:
+    """Collision meshes of a link (visual ones where it has none), each file once."""
+    refs = [m for m in link.meshes if m.collision] or list(link.meshes)
+    seen, out = set(), []
+    for m in refs:
+        key = (m.path, m.transform.tobytes())
+        if key not in seen:
+            seen.add(key)
+            out.append(m)
+    return out
+
+
+def load_link_vertices(link: Link) -> np.ndarray:
+    """All vertices of a link's meshes in the object frame (closed configuration)."""
+    vs = [_transform(_load_mesh(m.path)[0], link.pose @ m.transform) for m in mesh_files(link)]
+    return np.concatenate(vs) if vs else np.zeros((0, 3))
+
+
+def oriented_box(v: np.ndarray) -> ConvexPiece:
+    """PCA-oriented bounding box with a minimum half thickness (for flat/degenerate pieces)."""
+    c = v.mean(axis=0)
+    if len(v) >= 3:
+        _, _, vt = np.linalg.svd(v - c, full_matrices=False)
+        R = vt.T
+        if np.linalg.det(R) < 0:
+            R[:, 2] = -R[:, 2]
+    else:
+        R = np.eye(3)
+    local = (v - c) @ R
+    lo, hi = local.min(axis=0), local.max(axis=0)
+    half = np.maximum((hi - lo) / 2, MIN_BOX_HALF)
+    pos = c + R @ ((hi + lo) / 2)
+    return ConvexPiece(vertices=np.zeros((0, 3)), box_pos=pos, box_rot=R, box_half=half)
+
+
+def _reduce(points: np.ndarray, k: int) -> np.ndarray:
+    """Farthest-point subset of ``points`` of size ``k`` (keeps the extreme vertices of a hull)."""
+    idx = [int(np.argmax(np.linalg.norm(points - points.mean(0), axis=1)))]
+    d = np.linalg.norm(points - points[idx[0]], axis=1)
+    for _ in range(k - 1):
+        i = int(np.argmax(d))
+        idx.append(i)
+        d = np.minimum(d, np.linalg.norm(points - points[i], axis=1))
+    return points[idx]
+
+
+def convex_piece(v: np.ndarray, max_vertices: int) -> ConvexPiece:
+    """Hull of ``v`` with at most ``max_vertices`` vertices, or a thin box if the hull is degenerate."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    if len(v) < 4:
+        return oriented_box(v) if len(v) else oriented_box(np.zeros((1, 3)))
+    c = v - v.mean(axis=0)
+    spread = np.linalg.svd(c, compute_uv=False)
+    if spread[-1] < 1e-3 * spread[0]:  # (nearly) coplanar: no usable hull
+        return oriented_box(v)
+    try:
+        pts = v[ConvexHull(v).vertices]
+        if len(pts) > max_vertices:
+            pts = _reduce(pts, max_vertices)
+            pts = pts[ConvexHull(pts).vertices]
+    except (QhullError, ValueError):
+        return oriented_box(v)
+    return ConvexPiece(vertices=pts)
+
+
+def _decompose(v: np.ndarray, f: np.ndarray, max_pieces: int, threshold: float) -> list[np.ndarray]:
+    """CoACD approximate convex decomposition; falls back to the whole piece if it fails."""
+    try:
+        import coacd
+
+        coacd.set_log_level("error")
+        parts = coacd.run_coacd(coacd.Mesh(v, f), threshold=threshold, max_convex_hull=max_pieces,
+                                preprocess_resolution=20, seed=0)
+        out = [np.asarray(p[0], dtype=np.float64) for p in parts if len(p[0]) >= 4]
+        return out or [v]
+    except Exception:  # degenerate input: the hull (or box) is the best we can do
+        return [v]
+
+
+def concavity(v: np.ndarray) -> float:
+    """Depth of the deepest mesh vertex below its convex hull's surface, relative to the piece's second-largest
+    extent (0 for a convex piece; a U- or L-shaped handle is well above 0.1)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        eq = ConvexHull(v).equations
+    except (QhullError, ValueError):
+        return 0.0
+    depth = -(v @ eq[:, :3].T + eq[:, 3]).max(axis=1)  # >= 0 inside
+    ext = np.sort(np.ptp(v, axis=0))
+    return float(depth.max() / max(ext[1], 1e-9))
+
+
+@dataclass(frozen=True)
+class GeometryConfig:
+    """How link meshes become collision pieces."""
+
+    max_hull_vertices: int = 32
+    decompose_handles: bool = True
+    max_handle_pieces: int = 4
+    coacd_threshold: float = 0.05
+    concavity_tolerance: float = 0.1  # decompose only pieces whose deepest vertex lies this far inside the hull
+
+    def key(self) -> str:
+        return f"v{GEOMETRY_VERSION}-{self.max_hull_vertices}-{self.decompose_handles}-" \
+               f"{self.max_handle_pieces}-{self.coacd_threshold}"
+
+
+def link_pieces(link: Link, decompose: bool, config: GeometryConfig = GeometryConfig(),
+                use_cache: bool = True) -> list[ConvexPiece]:
+    """Convex pieces of one link, object frame; cached on disk keyed by mesh contents, pose and config."""
+    refs = mesh_files(link)
+    if not refs:
+        return []
+    key = hash_files([m.path for m in refs],
+                     extra=config.key() + str(decompose) + "".join(np.round(link.pose @ m.transform, 9).tobytes().hex()
+                                                                   for m in refs))
+    cache = cache_dir() / "geometry" / f"{key}.npz"
+    if use_cache and cache.is_file():
+        try:
+            return _unpack(np.load(cache))
+        except Exception:
+            cache.unlink(missing_ok=True)
+    pieces: list[ConvexPiece] = []
+    for m in refs:
+        v, f = _load_mesh(m.path)
+        if len(v) == 0:
+            continue
+        v = _transform(v, link.pose @ m.transform)
+        concave = decompose and len(f) and concavity(v) > config.concavity_tolerance
+        chunks = _decompose(v, f, config.max_handle_pieces, config.coacd_threshold) if concave else [v]
+        pieces.extend(convex_piece(c, config.max_hull_vertices) for c in chunks)
+    if use_cache:
+        import io as _io
+
+        buf = _io.BytesIO()
+        np.savez(buf, **_pack(pieces))
+        atomic_write_bytes(cache, buf.getvalue())
+    return pieces
+
+
+def _pack(pieces: list[ConvexPiece]) -> dict:
+    out = {"n": np.array(len(pieces))}
+    for i, p in enumerate(pieces):
+        if p.is_box:
+            out[f"b{i}"] = np.concatenate([p.box_pos, p.box_rot.ravel(), p.box_half])
+        else:
+            out[f"v{i}"] = p.vertices
+    return out
+
+
+def _unpack(z) -> list[ConvexPiece]:
+    pieces = []
+    for i in range(int(z["n"])):
+        if f"b{i}" in z:
+            b = z[f"b{i}"]
+            pieces.append(ConvexPiece(np.zeros((0, 3)), b[:3], b[3:12].reshape(3, 3), b[12:15]))
+        else:
+            pieces.append(ConvexPiece(z[f"v{i}"]))
+    return pieces
