@@ -20,7 +20,7 @@ from dragmesh2_jax.assets.gapartnet import Link, MeshRef
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import atomic_write_bytes, cache_dir, hash_files
 
-GEOMETRY_VERSION = "1"
+GEOMETRY_VERSION = "2"
 MIN_BOX_HALF = 0.002  # m (unscaled object units): half-thickness of boxes built for flat pieces
 
 
@@ -152,17 +152,25 @@ def _decompose(v: np.ndarray, f: np.ndarray, max_pieces: int, threshold: float) 
 
 
 def concavity(v: np.ndarray) -> float:
-    """Depth of the deepest mesh vertex below its convex hull's surface, relative to the piece's second-largest
-    extent (0 for a convex piece; a U- or L-shaped handle is well above 0.1)."""
+    """Depth of the deepest vertex inside the convex hull of the piece's silhouette (projected onto its two
+    principal axes), relative to the second-largest extent: about 0 for convex pieces, > 0.1 for an L- or
+    U-shaped handle seen side-on. Uses vertices only, so open (non-watertight) meshes are fine."""
     from scipy.spatial import ConvexHull, QhullError
 
+    if len(v) < 4:
+        return 0.0
+    c = v - v.mean(axis=0)
+    _, sv, vt = np.linalg.svd(c, full_matrices=False)
+    if sv[1] < 1e-9:
+        return 0.0
+    p = c @ vt[:2].T
     try:
-        eq = ConvexHull(v).equations
+        eq = ConvexHull(p).equations
     except (QhullError, ValueError):
         return 0.0
-    depth = -(v @ eq[:, :3].T + eq[:, 3]).max(axis=1)  # >= 0 inside
-    ext = np.sort(np.ptp(v, axis=0))
-    return float(depth.max() / max(ext[1], 1e-9))
+    depth = -(p @ eq[:, :2].T + eq[:, 2]).max(axis=1)  # >= 0 inside the silhouette hull
+    ext = np.ptp(p, axis=0)
+    return float(depth.max() / max(ext.min(), 1e-9))
 
 
 @dataclass(frozen=True)

@@ -268,7 +268,8 @@ def parse_urdf(urdf: Path) -> tuple[dict[str, Link], tuple[Joint, ...], str]:
         name, jtype = j.get("name", "?"), j.get("type", "")
         where = f"{urdf}: joint {name!r}"
         if jtype not in KNOWN_JOINT_TYPES:
-            raise DragMeshError(f"{where}: unknown joint type {jtype!r} (expected one of {', '.join(KNOWN_JOINT_TYPES)})")
+            known = ", ".join(KNOWN_JOINT_TYPES)
+            raise DragMeshError(f"{where}: unknown joint type {jtype!r} (expected one of {known})")
         parent, child = j.find("parent"), j.find("child")
         if parent is None or child is None:
             raise DragMeshError(f"{where}: missing <parent> or <child>")

@@ -92,7 +92,8 @@ def _handle(centre, long_axis, length, standoff, bar=0.025):
     posts = []
     for sgn in (-1, 1):
         pc = c + sgn * la * (length / 2 - bar / 2)
-        posts.append(_box([c[0] - standoff / 2, pc[1], pc[2]], [standoff / 2, 0, 0] + np.abs(la) * bar / 2 + half_short))
+        half = [standoff / 2, 0, 0] + np.abs(la) * bar / 2 + half_short
+        posts.append(_box([c[0] - standoff / 2, pc[1], pc[2]], half))
     bbox_centre = [c[0] - standoff / 2, c[1], c[2]]
     bbox = gapartnet_corners(bbox_centre, la, [-1.0, 0, 0], length, standoff, bar)
     return [bar_box, *posts], bbox

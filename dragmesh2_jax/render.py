@@ -1,0 +1,138 @@
+"""Pictures of a scene: MuJoCo's offscreen renderer where a GL backend exists, else a GL-free matplotlib
+drawing of the same geoms (so a picture is always written, and the caller is told which renderer ran)."""
+
+from __future__ import annotations
+
+import functools
+import io
+import os
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from dragmesh2_jax.io import atomic_write_bytes
+
+
+def _look_at_camera(model: mujoco.MjModel, target: np.ndarray) -> mujoco.MjvCamera:
+    cam = mujoco.MjvCamera()
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    cam.lookat[:] = target
+    cam.distance, cam.azimuth, cam.elevation = 0.9, 200.0, -25.0
+    return cam
+
+
+def _render_gl(model, data, target, width, height) -> bytes:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import warnings
+
+    import matplotlib.pyplot as plt
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = mujoco.Renderer(model, height, width)
+    with r:
+        r.update_scene(data, camera=_look_at_camera(model, target))
+        img = r.render()
+    buf = io.BytesIO()
+    plt.imsave(buf, img, format="png")
+    return buf.getvalue()
+
+
+def _geom_polys(model, data, g):
+    """Faces (list of Nx3 arrays) of geom ``g`` in world coordinates, or a capsule segment."""
+    from scipy.spatial import ConvexHull
+
+    pos, R, size, typ = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3), model.geom_size[g], model.geom_type[g]
+    if typ == mujoco.mjtGeom.mjGEOM_MESH:
+        m = model.geom_dataid[g]
+        v = model.mesh_vert[model.mesh_vertadr[m]: model.mesh_vertadr[m] + model.mesh_vertnum[m]]
+    elif typ == mujoco.mjtGeom.mjGEOM_BOX:
+        v = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)]) * size
+    elif typ == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        a = pos + R[:, 2] * size[1]
+        b = pos - R[:, 2] * size[1]
+        return "segment", (a, b, size[0])
+    else:
+        return None, None
+    w = v @ R.T + pos
+    try:
+        hull = ConvexHull(w)
+        return "faces", [w[s] for s in hull.simplices]
+    except Exception:
+        return None, None
+
+
+def _render_matplotlib(model, data, target, width, height) -> bytes:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    fig = plt.figure(figsize=(width / 100, height / 100), dpi=100)
+    ax = fig.add_subplot(111, projection="3d")
+    ax.computed_zorder = False  # draw in our order: object first, hand (contype 1) on top
+    for g in sorted(range(model.ngeom), key=lambda g: model.geom_contype[g] == 1):
+        kind, payload = _geom_polys(model, data, g)
+        rgba = model.geom_rgba[g].copy()
+        if kind == "faces":
+            rgba[3] = min(rgba[3], 0.35 if model.geom_contype[g] == 0 else 0.8)
+            ax.add_collection3d(Poly3DCollection(payload, facecolors=[rgba], edgecolors=(0, 0, 0, 0.08),
+                                                 linewidths=0.2))
+        elif kind == "segment":
+            a, b, r = payload
+            ax.plot(*np.stack([a, b]).T, color=rgba[:3] * 0.8, linewidth=max(1.5, r * 1100), solid_capstyle="round",
+                    zorder=10)
+    half = 0.22
+    ax.set_xlim(target[0] - half, target[0] + half)
+    ax.set_ylim(target[1] - half, target[1] + half)
+    ax.set_zlim(target[2] - half, target[2] + half)
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=20, azim=200)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    buf = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+@functools.lru_cache(maxsize=1)
+def gl_available() -> bool:
+    """Whether MuJoCo's offscreen GL can be used here. Only tried where a GL backend is configured
+    (``MUJOCO_GL`` set, or a ``DISPLAY``), and at most once per process: a failed GL context can abort it."""
+    if not (os.environ.get("MUJOCO_GL") or os.environ.get("DISPLAY")):
+        return False
+    try:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 16, 16)
+        r.close()
+        return True
+    except Exception:
+        return False
+
+
+def render_png(model: mujoco.MjModel, data: mujoco.MjData, path: str | Path, target=None, width: int = 800,
+               height: int = 600, backend: str = "auto") -> str:
+    """Write a PNG of the scene looking at ``target`` (world point). Returns the renderer used:
+    ``"mujoco"`` (GL offscreen) or ``"matplotlib"`` (no GL backend available, or ``backend="matplotlib"``)."""
+    target = np.asarray(target if target is not None else data.xpos[-1], dtype=np.float64)
+    png, used = None, "matplotlib"
+    if backend == "mujoco" or (backend == "auto" and gl_available()):
+        try:
+            png, used = _render_gl(model, data, target, width, height), "mujoco"
+        except Exception:
+            if backend == "mujoco":
+                raise
+    if png is None:
+        png = _render_matplotlib(model, data, target, width, height)
+    atomic_write_bytes(path, png)
+    return used

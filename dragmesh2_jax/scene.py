@@ -1,0 +1,230 @@
+"""Hand + object scene: one ``mujoco.MjModel`` and a frozen record of the ids the task needs.
+
+World frame: z-up, metres. The object's base frame is scaled by ``scale`` (default 0.4, as the reference)
+and placed at ``object_pos``; the hand's virtual joints move the wrist in world coordinates from the origin.
+
+Choices (documented, all in :class:`SceneConfig`):
+  * Only the target joint stays a DoF: passive (no actuator), viscous ``damping`` (10 N s/m or N m s/rad,
+    facts §2), armature 0.005, limits from the URDF (prismatic limits scaled). Every other movable joint
+    is locked at its closed (lower) position: it has no action channel and would only add DoFs and contacts.
+  * Contacts: hand against object only (hand geoms contype=1/conaffinity=2, object 2/1); no finger
+    self-collision, no part-part collisions. By default only target-part pieces within ``collision_radius``
+    of the handle collide (the handle and the front around it), which bounds MJX's contact buffer; static
+    pieces are visual. ``collide="all"`` makes every object piece collide.
+  * Target part mass: a thin-shell estimate, ``link_areal_density`` x the surface of its bounding box.
+  * Solver for MJX: Newton, few iterations, implicitfast integrator (stiff PD damping), dense Jacobian,
+    Euler damping off, pyramidal cone; dt = 1/240 s (the reference's PhysX substep).
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from dragmesh2_jax.assets import hand as hand_lib
+from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, link_pieces
+from dragmesh2_jax.assets.gapartnet import GAPartNetObject, HandleFrame
+from dragmesh2_jax.errors import DragMeshError
+
+TARGET_JOINT = "target_joint"
+TARGET_BODY = "object_target"
+HANDLE_SITE = "handle"
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    scale: float = 0.4  # object scale (facts §2)
+    object_pos: tuple[float, float, float] = (0.5, 0.0, 0.6)  # m, world (facts §2)
+    timestep: float = 1.0 / 240.0  # s: the reference's 60 Hz control x 4 PhysX substeps
+    damping: float = 10.0  # nominal target-joint damping (facts §2)
+    armature: float = 0.005  # object DoF armature (facts §2)
+    link_areal_density: float = 5.0  # kg/m^2 (thin-shell mass of the target part)
+    friction: float = 1.5  # object sliding friction
+    collide: str = "target"  # "target" | "all"
+    collision_radius: float = 0.2  # m (world): target-part pieces this near the handle centre collide
+    gravity: bool = True
+    solver_iterations: int = 4
+    ls_iterations: int = 8
+    hand: hand_lib.HandConfig = field(default_factory=hand_lib.HandConfig)
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+
+    def __post_init__(self):
+        if not self.scale > 0:
+            raise DragMeshError(f"scene scale must be positive, got {self.scale}")
+        if not 0 < self.timestep <= 0.05:
+            raise DragMeshError(f"scene timestep must be in (0, 0.05] s, got {self.timestep}")
+        if self.damping < 0:
+            raise DragMeshError(f"target-joint damping must be >= 0, got {self.damping}")
+        if self.collide not in ("target", "all"):
+            raise DragMeshError(f"collide must be 'target' or 'all', got {self.collide!r}")
+
+
+@dataclass(frozen=True)
+class SceneIds:
+    """Indices into the compiled model. Hand arrays are in the 51-DoF action order."""
+
+    hand_qpos: np.ndarray  # (51,) qpos addresses
+    hand_dof: np.ndarray  # (51,) dof (qvel) addresses
+    hand_actuators: np.ndarray  # (51,)
+    hand_range: np.ndarray  # (51, 2) joint limits
+    target_joint: int
+    target_qpos: int
+    target_dof: int
+    target_range: tuple[float, float]  # MuJoCo units (m or rad); closed = lower
+    target_is_revolute: bool
+    target_body: int
+    handle_site: int
+    palm_site: int
+    wrist_body: int
+    fingertip_sites: np.ndarray  # (5,)
+    hand_geoms: np.ndarray
+    object_collision_geoms: np.ndarray
+
+
+@dataclass(frozen=True)
+class Scene:
+    model: mujoco.MjModel = field(repr=False)
+    ids: SceneIds = field(repr=False)
+    obj: GAPartNetObject = field(repr=False)
+    config: SceneConfig
+    xml: str = field(repr=False)
+    handle: HandleFrame  # world frame, object closed
+    stats: dict
+
+    def initial_data(self) -> mujoco.MjData:
+        """MjData at the closed object and the hand at the origin with PD targets = current pose."""
+        d = mujoco.MjData(self.model)
+        d.qpos[self.ids.target_qpos] = self.ids.target_range[0]
+        d.ctrl[self.ids.hand_actuators] = d.qpos[self.ids.hand_qpos]
+        mujoco.mj_forward(self.model, d)
+        return d
+
+
+def _fmt(v) -> str:
+    return " ".join(f"{float(x):.7g}" for x in np.asarray(v).ravel())
+
+
+def _piece_geom(parent: ET.Element, asset: ET.Element, piece: ConvexPiece, name: str, scale: float, collide: bool,
+                friction: float, rgba: str) -> None:
+    attrs = {"name": name, "rgba": rgba, "group": "2" if collide else "0"}
+    if collide:
+        attrs.update(contype="2", conaffinity="1", condim="3", friction=f"{friction} 0.02 0.001")
+    else:
+        attrs.update(contype="0", conaffinity="0")
+    attrs["mass"] = "0"
+    if piece.is_box:
+        from scipy.spatial.transform import Rotation
+
+        q = Rotation.from_matrix(piece.box_rot).as_quat()  # xyzw
+        attrs.update(type="box", pos=_fmt(scale * piece.box_pos), size=_fmt(scale * piece.box_half),
+                     quat=_fmt([q[3], q[0], q[1], q[2]]))
+    else:
+        ET.SubElement(asset, "mesh", name=f"{name}_mesh", vertex=_fmt(scale * piece.vertices), inertia="convex")
+        attrs.update(type="mesh", mesh=f"{name}_mesh")
+    ET.SubElement(parent, "geom", **attrs)
+
+
+def _piece_near(piece: ConvexPiece, point: np.ndarray, radius: float, scale: float) -> bool:
+    c = scale * piece.corners()
+    lo, hi = c.min(0), c.max(0)
+    return float(np.linalg.norm(np.clip(point, lo, hi) - point)) <= radius
+
+
+def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_cache: bool = True) -> Scene:
+    """Compose the hand and ``obj`` into one model. See the module docstring for the modelling choices."""
+    s = config.scale
+    t = obj.target
+    pos = np.asarray(config.object_pos, dtype=np.float64)
+    handle_obj = t.handle
+    handle_local = s * handle_obj.centre  # in the object body frame (object placed at ``pos``)
+
+    root = ET.Element("mujoco", model=f"dragmesh2_{obj.object_id}")
+    ET.SubElement(root, "compiler", angle="radian", autolimits="true")
+    opt = ET.SubElement(root, "option", timestep=f"{config.timestep:.9g}", integrator="implicitfast",
+                        solver="Newton", iterations=str(config.solver_iterations),
+                        ls_iterations=str(config.ls_iterations), cone="pyramidal", jacobian="dense",
+                        gravity="0 0 -9.81" if config.gravity else "0 0 0")
+    ET.SubElement(opt, "flag", eulerdamp="disable")
+    vis = ET.SubElement(root, "visual")
+    ET.SubElement(vis, "global", offwidth="960", offheight="720")
+    asset = ET.SubElement(root, "asset")
+    world = ET.SubElement(root, "worldbody")
+    ET.SubElement(world, "light", pos="0 -1 2.5", dir="0.2 0.4 -1", directional="true", diffuse="0.8 0.8 0.8")
+    hand_body, actuators = hand_lib.build_hand_mjcf(config.hand)
+    world.append(hand_body)
+
+    obj_body = ET.SubElement(world, "body", name="object", pos=_fmt(pos))
+    handle_links = {p.link for p in obj.parts if p.is_handle}
+    n_collide, max_verts, n_pieces = 0, 0, 0
+    target_pieces: list[ConvexPiece] = []
+    target_body = ET.Element("body", name=TARGET_BODY, pos="0 0 0")
+    j = t.joint
+    lower, upper = (s * j.lower, s * j.upper) if not j.is_revolute else (j.lower, j.upper)
+    ET.SubElement(target_body, "joint", name=TARGET_JOINT, type="hinge" if j.is_revolute else "slide",
+                  pos=_fmt(s * j.origin), axis=_fmt(j.axis), range=f"{lower:.7g} {upper:.7g}", ref=f"{lower:.7g}",
+                  damping=f"{config.damping}", armature=f"{config.armature}", limited="true")
+    for name, link in obj.links.items():
+        in_target = name in t.attached_links
+        # Only handles that can be touched are decomposed (decomposition is the slow, cached step).
+        decompose = (name in handle_links and config.geometry.decompose_handles
+                     and (in_target or config.collide == "all"))
+        pieces = link_pieces(link, decompose=decompose, config=config.geometry, use_cache=use_cache)
+        for k, piece in enumerate(pieces):
+            collide = config.collide == "all" or (
+                in_target and _piece_near(piece, handle_local, config.collision_radius, s))
+            rgba = "0.35 0.55 0.8 1" if name in handle_links else "0.75 0.75 0.7 1" if in_target else "0.6 0.6 0.6 0.5"
+            _piece_geom(target_body if in_target else obj_body, asset, piece, f"{name}_{k}", s, collide,
+                        config.friction, rgba)
+            n_collide += collide
+            n_pieces += 1
+            max_verts = max(max_verts, piece.num_vertices)
+            if in_target:
+                target_pieces.append(piece)
+    if not target_pieces:
+        raise DragMeshError(f"{obj.folder}: target part {t.part.link} has no geometry")
+    if n_collide == 0:
+        raise DragMeshError(f"{obj.folder}: no collision geometry within {config.collision_radius} m of the handle")
+    corners = s * np.concatenate([p.corners() for p in target_pieces])
+    lo, hi = corners.min(0), corners.max(0)
+    ext = np.maximum(hi - lo, 0.01)
+    mass = config.link_areal_density * 2 * (ext[0] * ext[1] + ext[1] * ext[2] + ext[0] * ext[2])
+    inertia = mass / 12 * np.array([ext[1] ** 2 + ext[2] ** 2, ext[0] ** 2 + ext[2] ** 2, ext[0] ** 2 + ext[1] ** 2])
+    ET.SubElement(target_body, "inertial", pos=_fmt((lo + hi) / 2), mass=f"{mass:.6g}", diaginertia=_fmt(inertia))
+    ET.SubElement(target_body, "site", name=HANDLE_SITE, pos=_fmt(handle_local),
+                  xyaxes=_fmt(np.concatenate([handle_obj.long_axis, handle_obj.normal])), size="0.008",
+                  rgba="0 1 0 1", group="3")
+    obj_body.append(target_body)
+    root.append(actuators)
+    xml = ET.tostring(root, encoding="unicode")
+    try:
+        model = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as e:
+        raise DragMeshError(f"{obj.folder}: MuJoCo cannot compile the scene ({str(e).splitlines()[0]})") from None
+
+    names = hand_lib.dof_names(config.hand.side)
+    jid = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in names]
+    tj = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, TARGET_JOINT)
+    hand_geoms = np.array([g for g in range(model.ngeom) if model.geom_contype[g] == 1])
+    obj_geoms = np.array([g for g in range(model.ngeom) if model.geom_contype[g] == 2])
+    ids = SceneIds(
+        hand_qpos=np.array([model.jnt_qposadr[i] for i in jid]),
+        hand_dof=np.array([model.jnt_dofadr[i] for i in jid]),
+        hand_actuators=np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"act_{n}") for n in names]),
+        hand_range=np.array([model.jnt_range[i] for i in jid]),
+        target_joint=tj, target_qpos=int(model.jnt_qposadr[tj]), target_dof=int(model.jnt_dofadr[tj]),
+        target_range=(float(lower), float(upper)), target_is_revolute=bool(j.is_revolute),
+        target_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, TARGET_BODY),
+        handle_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, HANDLE_SITE),
+        palm_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, hand_lib.palm_site_name(config.hand.side)),
+        wrist_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, hand_lib.wrist_body_name(config.hand.side)),
+        fingertip_sites=np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, n)
+                                  for n in hand_lib.fingertip_site_names(config.hand.side)]),
+        hand_geoms=hand_geoms, object_collision_geoms=obj_geoms,
+    )
+    stats = {"collision_pieces": int(n_collide), "pieces": int(n_pieces), "max_hull_vertices": int(max_verts),
+             "target_mass_kg": round(float(mass), 4), "nq": int(model.nq), "nv": int(model.nv), "nu": int(model.nu),
+             "ngeom": int(model.ngeom), "contact_pairs": int(len(hand_geoms) * len(obj_geoms))}
+    return Scene(model=model, ids=ids, obj=obj, config=config, xml=xml, handle=handle_obj.scaled(s, pos), stats=stats)

@@ -1,0 +1,83 @@
+"""The hand + object scene: structure, contact filtering, placement, and MJX compile + step."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from dragmesh2_jax.scene import SceneConfig, build_scene
+from tests.conftest import REAL_OBJECTS
+
+
+@pytest.mark.parametrize("oid", REAL_OBJECTS)
+def test_scene_structure(real_scenes, oid):
+    sc = real_scenes[oid]
+    m, ids = sc.model, sc.ids
+    assert m.nu == 51 and len(ids.hand_actuators) == 51
+    assert m.nv == 52  # 51 hand DoFs + the target joint; other object joints are locked
+    # the target joint is passive: no actuator drives it, and it carries the nominal damping
+    assert ids.target_joint not in set(m.actuator_trnid[:, 0])
+    assert m.dof_damping[ids.target_dof] == pytest.approx(10.0)
+    assert ids.target_range[1] > ids.target_range[0]
+    # hand geoms never collide with each other; object geoms never with each other
+    hand, obj = ids.hand_geoms, ids.object_collision_geoms
+    assert len(hand) == 16 and len(obj) >= 1
+    ct, ca = m.geom_contype, m.geom_conaffinity
+    assert not (ct[hand[0]] & ca[hand[1]]) and not (ct[obj[0]] & ca[obj[-1]])
+    assert (ct[hand[0]] & ca[obj[0]]) or (ct[obj[0]] & ca[hand[0]])
+
+
+@pytest.mark.parametrize("oid", REAL_OBJECTS)
+def test_handle_site_is_at_the_scaled_annotated_handle(real_scenes, oid):
+    sc = real_scenes[oid]
+    d = sc.initial_data()
+    expected = np.asarray(sc.config.object_pos) + sc.config.scale * sc.obj.target.handle.centre
+    np.testing.assert_allclose(d.site_xpos[sc.ids.handle_site], expected, atol=1e-9)
+    # site axes: x = long axis, y = outward normal
+    np.testing.assert_allclose(d.site_xmat[sc.ids.handle_site].reshape(3, 3)[:, 1], sc.handle.normal, atol=1e-9)
+
+
+def test_target_joint_moves_the_handle_and_prismatic_limits_scale(real_scenes):
+    sc = real_scenes["45261"]
+    assert sc.ids.target_range[1] == pytest.approx(0.4 * 0.87)
+    d = sc.initial_data()
+    before = d.site_xpos[sc.ids.handle_site].copy()
+    d.qpos[sc.ids.target_qpos] = 0.1
+    mujoco.mj_forward(sc.model, d)
+    np.testing.assert_allclose(d.site_xpos[sc.ids.handle_site] - before, [-0.1, 0, 0], atol=1e-9)
+
+
+def test_passive_object_stays_closed_without_contact(real_scenes):
+    sc = real_scenes["45780"]
+    d = sc.initial_data()
+    for _ in range(240):
+        mujoco.mj_step(sc.model, d)
+    assert abs(d.qpos[sc.ids.target_qpos]) < 1e-6 and np.isfinite(d.qpos).all()
+
+
+def test_bad_scene_config():
+    from dragmesh2_jax.errors import DragMeshError
+
+    with pytest.raises(DragMeshError, match="scale"):
+        SceneConfig(scale=0)
+    with pytest.raises(DragMeshError, match="collide"):
+        SceneConfig(collide="everything")
+
+
+def test_collide_all_adds_static_pieces(real_objects, real_scenes):
+    sc_all = build_scene(real_objects["45780"], SceneConfig(collide="all"))
+    assert len(sc_all.ids.object_collision_geoms) > len(real_scenes["45780"].ids.object_collision_geoms)
+
+
+@pytest.mark.mjx
+@pytest.mark.parametrize("oid", REAL_OBJECTS)
+def test_mjx_compiles_and_steps_finite(real_scenes, oid):
+    import jax
+    import jax.numpy as jnp
+    from mujoco import mjx
+
+    sc = real_scenes[oid]
+    mx = mjx.put_model(sc.model, impl="jax")
+    d = mjx.make_data(sc.model, impl="jax")
+    d = d.replace(qpos=jnp.asarray(sc.initial_data().qpos))
+    d = jax.jit(mjx.step)(mx, d)
+    assert bool(jnp.all(jnp.isfinite(d.qpos))) and bool(jnp.all(jnp.isfinite(d.qvel)))
