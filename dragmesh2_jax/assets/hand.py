@@ -113,10 +113,14 @@ class HandConfig:
     side: str = "right"  # "right" | "left" (mirror image across the hand's y-z plane)
     virtual: DriveGains = DriveGains(kp=3000.0, kv=80.0, force_limit=300.0, armature=0.1)
     wrist: DriveGains = DriveGains(kp=100.0, kv=2.5, force_limit=50.0, armature=0.01)
-    finger: DriveGains = DriveGains(kp=30.0, kv=0.5, force_limit=5.0, armature=0.002)
+    finger: DriveGains = DriveGains(kp=30.0, kv=0.5, force_limit=1.0, armature=0.002)
     virtual_range: tuple[tuple[float, float], ...] = ((-2.0, 2.0), (-2.0, 2.0), (0.0, 2.0))  # m (facts §1)
     wrist_range_deg: tuple[float, float] = (-180.0, 180.0)
     friction: float = 1.5  # sliding friction of hand geoms
+    # Contact and finger joint-limit stiffness: solref time constant (s). MuJoCo's default 0.02 lets the light,
+    # armature-dominated phalanges sink ~2 cm into a handle (or 0.1 rad past a limit) under full drive;
+    # 2 dt (dt = 1/240 s) is the stiffest value MuJoCo accepts.
+    contact_timeconst: float = 0.0085
     rgba: tuple[float, float, float, float] = (0.85, 0.65, 0.5, 1.0)
 
     def __post_init__(self):
@@ -192,7 +196,7 @@ def build_hand_mjcf(config: HandConfig = HandConfig()) -> tuple[ET.Element, ET.E
     ranges = dof_ranges(config)
     rgba = _fmt(config.rgba)
     geom_common = {"contype": "1", "conaffinity": "2", "condim": "3", "friction": f"{config.friction} 0.02 0.001",
-                   "rgba": rgba, "group": "1"}
+                   "solref": f"{config.contact_timeconst} 1", "solimp": "0.95 0.99 0.001", "rgba": rgba, "group": "1"}
 
     wrist = ET.Element("body", name=wrist_body_name(side), pos="0 0 0", gravcomp="1")
     # The six virtual DoFs are world-frame motions: never mirrored, so wrist_rpy means the same for both hands.
@@ -217,7 +221,8 @@ def build_hand_mjcf(config: HandConfig = HandConfig()) -> tuple[ET.Element, ET.E
         for j, a in enumerate("xyz"):
             dof = NUM_VIRTUAL + 3 * k + j
             ET.SubElement(body, "joint", name=names[dof], type="hinge", axis=_axis(a, side),
-                          armature=f"{config.finger.armature}", range=_fmt(ranges[dof]), limited="true")
+                          armature=f"{config.finger.armature}", range=_fmt(ranges[dof]), limited="true",
+                          solreflimit=f"{config.contact_timeconst} 1")
         ft = _mirror(ph.fromto, side)
         ET.SubElement(body, "geom", name=f"{p}_{ph.name}_geom", type="capsule", fromto=_fmt(ft), size=f"{ph.radius}",
                       density=f"{PHALANX_DENSITY}", **geom_common)

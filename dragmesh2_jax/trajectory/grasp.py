@@ -30,15 +30,16 @@ class GraspParams:
 
     palm_clearance: float = 0.030
     normal_offset: float = 0.033
+    flip: bool = False  # put the palm on the other side of the bar
 
 
 def wrist_orientation(handle: HandleFrame, opening_dir: np.ndarray | None = None,
-                      away_from_pivot: np.ndarray | None = None) -> np.ndarray:
+                      away_from_pivot: np.ndarray | None = None, flip: bool = False) -> np.ndarray:
     """R_w (3x3, world). Of the two long-axis signs, choose the one whose palm (-Z) pushes along the opening
     direction's part across the bar (lids: palm under the bar), then the palm on the side away from a hinge,
     then the palm above the bar (drawers)."""
     y = handle.normal / np.linalg.norm(handle.normal)
-    best, best_score = None, -np.inf
+    options = []
     for sgn in (1.0, -1.0):
         x = sgn * handle.long_axis
         x = x - (x @ y) * y
@@ -50,9 +51,9 @@ def wrist_orientation(handle: HandleFrame, opening_dir: np.ndarray | None = None
             score += -4.0 * float(z @ perp)
         if away_from_pivot is not None:
             score += 1.0 * float(z @ away_from_pivot)
-        if score > best_score:
-            best, best_score = np.stack([x, y, z], axis=1), score
-    return best
+        options.append((score, np.stack([x, y, z], axis=1)))
+    options.sort(key=lambda o: -o[0])
+    return options[1 if flip else 0][1]
 
 
 def palm_target(handle: HandleFrame, R: np.ndarray, params: GraspParams = GraspParams()) -> np.ndarray:

@@ -1,0 +1,293 @@
+"""Geometry-guided reference trajectories (paper §3.3, Appendix B, Algorithm 1), executed in MuJoCo physics.
+
+The plan is a sequence of 51-d hand PD targets, one per frame (one 1/60 s control step = ``substeps``
+physics steps): approach (wrist from x_pre = x_w + delta n to x_w, fingers open -> pre-shape), grasp
+(wrist fixed, fingers pre-shape -> grasp), drag (prismatic: the wrist translates d along the opening
+direction; revolute: the palm target rotates by theta about the joint axis and origin, the wrist rotating in
+step), release (fingers open, wrist retracts along the final normal). The plan runs in the C engine with the
+hand tracking it through its PD actuators; the object moves only through contact. Every frame records the
+simulated state, so ``joint_positions`` is what contact achieved.
+
+If a grasp placement fails the quality gate, a few alternative palm placements are tried in order
+(``GeneratorParams.placements``); the header records which one passed and every attempt.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from dragmesh2_jax.assets import hand as hand_lib
+from dragmesh2_jax.assets.gapartnet import GAPartNetObject, axis_angle_matrix, opening_direction
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.scene import Scene, SceneConfig, build_scene
+from dragmesh2_jax.trajectory import grasp
+from dragmesh2_jax.trajectory.schema import Frame, Trajectory
+
+GENERATOR_VERSION = "1.0"
+
+
+@dataclass(frozen=True)
+class GeneratorParams:
+    """Phase lengths (frames of 1/60 s), offsets (m), drag extent, and the quality gate.
+
+    ``drag_distance``/``drag_angle`` default to 80% of the joint range, capped at 0.30 m / 60 deg (the
+    reference's 0.5 m and 60 deg at 0.4 scale); ``delta`` is the pre-grasp offset along the normal."""
+
+    approach_frames: int = 45
+    grasp_frames: int = 40
+    drag_frames: int = 180
+    release_frames: int = 45
+    settle_frames: int = 5
+    delta: float = 0.08
+    drag_distance: float | None = None
+    drag_angle: float | None = None
+    drag_fraction: float = 0.8
+    max_drag_distance: float = 0.30
+    max_drag_angle: float = float(np.radians(60.0))
+    retract: float = 0.10
+    substeps: int = 4  # physics steps per frame (dt = 1/240 s -> 60 Hz frames)
+    placements: tuple[grasp.GraspParams, ...] = (
+        grasp.GraspParams(),
+        grasp.GraspParams(palm_clearance=0.015, normal_offset=0.02),
+        grasp.GraspParams(palm_clearance=0.03, normal_offset=0.05),
+        grasp.GraspParams(palm_clearance=0.015, normal_offset=0.033, flip=True),
+    )
+    # quality gate
+    min_open_fraction: float = 0.5  # the joint must follow at least this much of the planned drag
+    max_penetration: float = 0.015  # m
+    limit_tolerance: float = 0.02  # rad or m beyond the hand's joint limits
+
+    def __post_init__(self):
+        for k in ("approach_frames", "grasp_frames", "drag_frames", "release_frames", "substeps"):
+            if getattr(self, k) < 1:
+                raise DragMeshError(f"generator parameter {k} must be >= 1, got {getattr(self, k)}")
+        if self.delta < 0 or self.retract < 0:
+            raise DragMeshError("generator offsets delta and retract must be >= 0")
+
+
+@dataclass
+class Plan:
+    phases: list[str] = field(default_factory=list)
+    steps: list[int] = field(default_factory=list)
+    targets: list[np.ndarray] = field(default_factory=list)
+
+    def add(self, phase: str, step: int, q: np.ndarray) -> None:
+        self.phases.append(phase)
+        self.steps.append(step)
+        self.targets.append(np.asarray(q, dtype=np.float64))
+
+
+def continuous_euler(R: np.ndarray, prev: np.ndarray | None, limit: float = np.pi) -> np.ndarray:
+    """Intrinsic XYZ angles of R. Of the two equivalent solutions and their 2 pi shifts, keep those inside the
+    wrist limits (+-``limit``) and take the one nearest ``prev``, so the wrist PD target never jumps."""
+    a = Rotation.from_matrix(R).as_euler("XYZ")
+    b = np.array([a[0] + np.pi, np.pi - a[1], a[2] + np.pi])
+    shifts = np.array([-2 * np.pi, 0.0, 2 * np.pi])
+    cands = [np.array([x + i, y + j, z + k]) for c in (a, b) for i in shifts for j in shifts for k in shifts
+             for x, y, z in [c]]
+    inside = [c for c in cands if np.all(np.abs(c) <= limit + 1e-9)] or cands
+    ref = prev if prev is not None else np.zeros(3)
+    return min(inside, key=lambda c: float(np.abs(c - ref).sum()))
+
+
+def drag_extent(scene: Scene, params: GeneratorParams) -> float:
+    lo, hi = scene.ids.target_range
+    if scene.ids.target_is_revolute:
+        return params.drag_angle if params.drag_angle is not None else min(
+            params.max_drag_angle, params.drag_fraction * (hi - lo))
+    return params.drag_distance if params.drag_distance is not None else min(
+        params.max_drag_distance, params.drag_fraction * (hi - lo))
+
+
+def make_plan(scene: Scene, params: GeneratorParams, placement: grasp.GraspParams) -> Plan:
+    """The hand PD targets of every frame (Algorithm 1), in world coordinates."""
+    obj, h = scene.obj, scene.handle
+    t = obj.target
+    s, pos = scene.config.scale, np.asarray(scene.config.object_pos)
+    pivot = pos + s * t.joint.origin
+    axis = t.joint.axis / np.linalg.norm(t.joint.axis)
+    open_dir = opening_direction(t.part, t.joint, t.handle.centre)
+    away = None
+    if t.joint.is_revolute:
+        away = h.centre - pivot
+        away = away - (away @ axis) * axis
+        away /= max(np.linalg.norm(away), 1e-9)
+    R_w = grasp.wrist_orientation(h, open_dir, away, flip=placement.flip)
+    palm = grasp.palm_target(h, R_w, placement)
+    x_w = grasp.wrist_position(palm, R_w)
+    x_pre = x_w + params.delta * h.normal
+    q_open, q_pre, q_grasp = grasp.open_pose(), grasp.preshape_pose(), grasp.grasp_pose(h.thickness)
+    extent = drag_extent(scene, params)
+    plan = Plan()
+    rpy = continuous_euler(R_w, None)
+
+    def q(x, R, fingers, prev_rpy):
+        e = continuous_euler(R, prev_rpy)
+        return np.concatenate([x, e, fingers]), e
+
+    for k in range(params.approach_frames):
+        a = (k + 1) / params.approach_frames
+        target, rpy = q((1 - a) * x_pre + a * x_w, R_w, (1 - a) * q_open + a * q_pre, rpy)
+        plan.add("approach", k, target)
+    for k in range(params.grasp_frames):
+        a = min(1.0, 1.5 * (k + 1) / params.grasp_frames)  # close, then hold
+        target, rpy = q(x_w, R_w, (1 - a) * q_pre + a * q_grasp, rpy)
+        plan.add("grasp", k, target)
+    R_t, palm_t = R_w, palm
+    for k in range(params.drag_frames):
+        a = (k + 1) / params.drag_frames
+        if t.joint.is_revolute:
+            R_d = axis_angle_matrix(axis, a * extent)
+            palm_t = pivot + R_d @ (palm - pivot)
+            R_t = R_d @ R_w
+        else:
+            palm_t = palm + a * extent * open_dir
+        target, rpy = q(grasp.wrist_position(palm_t, R_t), R_t, q_grasp, rpy)
+        plan.add("drag", k, target)
+    n_final = R_t @ (R_w.T @ h.normal)
+    x_final = grasp.wrist_position(palm_t, R_t)
+    for k in range(params.release_frames):
+        a = (k + 1) / params.release_frames
+        fingers = q_grasp + min(1.0, 2 * a) * (q_open - q_grasp)
+        target, rpy = q(x_final + a * params.retract * n_final, R_t, fingers, rpy)
+        plan.add("release", k, target)
+    return plan
+
+
+def _object_joint_positions(scene: Scene, d: mujoco.MjData) -> tuple[float, ...]:
+    """Every movable object joint in URDF order: the simulated target, the locked ones at their lower limit."""
+    s = scene.config.scale
+    out = []
+    for j in scene.obj.movable_joints:
+        if j.name == scene.obj.target.joint.name:
+            out.append(float(d.qpos[scene.ids.target_qpos]))
+        else:
+            out.append(float(j.lower if j.is_revolute else s * j.lower))
+    return tuple(out)
+
+
+def _penetration(scene: Scene, d: mujoco.MjData) -> float:
+    hand = set(scene.ids.hand_geoms.tolist())
+    worst = 0.0
+    for c in d.contact[: d.ncon]:
+        if (c.geom1 in hand) != (c.geom2 in hand):
+            worst = max(worst, -float(c.dist))
+    return worst
+
+
+def execute(scene: Scene, plan: Plan, params: GeneratorParams, damping_scale: float = 1.0):
+    """Run the plan in the C engine; returns (frames, stats)."""
+    m, ids = scene.model, scene.ids
+    m = mujoco.MjModel.from_xml_string(scene.xml) if damping_scale != 1.0 else m
+    m.dof_damping[ids.target_dof] = scene.config.damping * damping_scale
+    d = mujoco.MjData(m)
+    lo, hi = ids.hand_range[:, 0], ids.hand_range[:, 1]
+    q0 = np.clip(plan.targets[0], lo, hi)
+    q0[:6] = plan.targets[0][:6] - (plan.targets[1][:6] - plan.targets[0][:6])  # start one step back
+    d.qpos[ids.target_qpos] = ids.target_range[0]
+    d.qpos[ids.hand_qpos] = np.clip(q0, lo, hi)
+    d.ctrl[ids.hand_actuators] = d.qpos[ids.hand_qpos]
+    mujoco.mj_forward(m, d)
+    for _ in range(params.settle_frames * params.substeps):
+        mujoco.mj_step(m, d)
+    frames, pen, limit_excess = [], 0.0, 0.0
+    wrist = ids.wrist_body
+    for phase, step, target in zip(plan.phases, plan.steps, plan.targets, strict=True):
+        d.ctrl[ids.hand_actuators] = np.clip(target, lo, hi)
+        for _ in range(params.substeps):
+            mujoco.mj_step(m, d)
+            pen = max(pen, _penetration(scene, d))
+        if not np.all(np.isfinite(d.qpos)):
+            raise DragMeshError(f"{scene.obj.folder}: physics went non-finite while executing the plan")
+        hq = d.qpos[ids.hand_qpos].copy()
+        limit_excess = max(limit_excess, float(np.max(np.maximum(lo - hq, hq - hi))))
+        w = d.xquat[wrist]
+        frames.append(Frame(
+            phase=phase, step=step, virtual_xyz=tuple(hq[:3]), wrist_rpy=tuple(hq[3:6]), finger_dofs=tuple(hq[6:]),
+            wrist_pos=tuple(float(x) for x in d.xpos[wrist]), wrist_rot=(float(w[1]), float(w[2]), float(w[3]),
+                                                                        float(w[0])),
+            joint_positions=_object_joint_positions(scene, d), hand_target=tuple(float(x) for x in target)))
+    return frames, {"max_penetration_m": pen, "hand_limit_excess": max(limit_excess, 0.0)}
+
+
+def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorParams, extent: float) -> dict:
+    traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)}})
+    drag = [i for i, f in enumerate(frames) if f.phase == "drag"]
+    q_start = traj.target_q[drag[0]]
+    achieved = float(traj.target_q[drag[0]: drag[-1] + 1].max() - q_start)
+    opened = achieved >= params.min_open_fraction * extent
+    q_done = traj.q_done
+    reached = bool(traj.target_q.max() >= q_done) and opened
+    within = stats["hand_limit_excess"] <= params.limit_tolerance
+    shallow = stats["max_penetration_m"] <= params.max_penetration
+    reasons = []
+    if not opened:
+        reasons.append(f"contact opened the joint by {achieved:.4f} of the planned {extent:.4f}")
+    if not within:
+        reasons.append(f"hand left its joint limits by {stats['hand_limit_excess']:.4f}")
+    if not shallow:
+        reasons.append(f"hand-object penetration {stats['max_penetration_m']:.4f} m")
+    return {"passed": bool(reached and within and shallow), "opened_past_q_done": bool(reached),
+            "achieved_opening": round(achieved, 6), "planned_opening": round(float(extent), 6),
+            "q_done": q_done, "max_penetration_m": round(stats["max_penetration_m"], 6),
+            "hand_within_limits": bool(within), "reasons": reasons}
+
+
+def _target_index(scene: Scene) -> int:
+    names = [j.name for j in scene.obj.movable_joints]
+    return names.index(scene.obj.target.joint.name)
+
+
+def generate(obj: GAPartNetObject, params: GeneratorParams = GeneratorParams(), scene_config: SceneConfig | None = None,
+             seed: int = 0, scene: Scene | None = None) -> Trajectory:
+    """Plan and execute a trajectory for ``obj``; returns it with a header holding the quality gate."""
+    t0 = time.time()
+    scene = scene or build_scene(obj, scene_config or SceneConfig())
+    extent = drag_extent(scene, params)
+    if extent <= 0:
+        raise DragMeshError(f"{obj.folder}: target joint has no range to drag through")
+    attempts = []
+    best = None
+    for k, placement in enumerate(params.placements):
+        frames, stats = execute(scene, make_plan(scene, params, placement), params)
+        q = quality(scene, frames, stats, params, extent)
+        attempts.append({"placement": k, **{x: q[x] for x in ("passed", "achieved_opening", "max_penetration_m")}})
+        if best is None or q["passed"] or q["achieved_opening"] > best[1]["achieved_opening"]:
+            best = (frames, q, k, placement)
+        if q["passed"]:
+            break
+    frames, q, k, placement = best
+    h = scene.handle
+    t = obj.target
+    header = {
+        "object_id": obj.object_id, "category": obj.category, "object_folder": str(obj.folder),
+        "target": {"joint_name": t.joint.name, "joint_index": _target_index(scene), "link": t.part.link,
+                   "part_category": t.part.category, "type": "revolute" if t.joint.is_revolute else "prismatic",
+                   "range": list(scene.ids.target_range)},
+        "joints": [j.name for j in obj.movable_joints],
+        "handle": {"centre": h.centre.tolist(), "long_axis": h.long_axis.tolist(), "normal": h.normal.tolist(),
+                   "short_axis": h.short_axis.tolist(), "thickness": h.thickness, "source": h.source},
+        "scene": {"scale": scene.config.scale, "object_pos": list(scene.config.object_pos),
+                  "timestep": scene.config.timestep, "substeps_per_frame": params.substeps,
+                  "frame_dt": scene.config.timestep * params.substeps, "damping": scene.config.damping},
+        "generator": {"version": GENERATOR_VERSION, "params": _jsonable(asdict(params)), "placement": k,
+                      "placement_params": asdict(placement), "attempts": attempts},
+        "seed": seed, "quality": q, "wall_s": round(time.time() - t0, 3),
+        "hand": {"side": scene.config.hand.side, "dof_names": list(hand_lib.dof_names(scene.config.hand.side))},
+    }
+    return Trajectory(frames=tuple(frames), header=header)
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    return x

@@ -1,0 +1,198 @@
+"""Trajectory files: the reference implementation's frame schema plus a header.
+
+A frame (facts §9): ``phase`` (approach|grasp|drag|release), ``step`` (index within the phase),
+``virtual_xyz`` (3, m), ``wrist_rpy`` (3, rad, intrinsic XYZ), ``finger_dofs`` (45, rad) -- together the
+measured 51-d hand q -- ``wrist_pos`` (3, m) and ``wrist_rot`` (4, quaternion xyzw) of the wrist body, and
+``joint_positions`` (every movable object joint, m or rad, scaled world units). Our files may add
+``hand_target`` (51, the PD command of that frame).
+
+The project writes ``{"format": "dragmesh2-trajectory", "version": 1, "header": {...}, "frames": [...]}``;
+the reader also accepts the reference's bare list of frames.
+
+Task quantities derived from a trajectory (paper eq. done/progress; facts §4):
+  target joint = argmax over joints of (max - min) over frames, q_min/q_max over frames,
+  q_done = q_min + rho (q_max - q_min) with rho = 0.5, drag start = first "drag" frame,
+  q_start = q at the drag start, q_goal = q_max.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.io import atomic_write_text
+
+FORMAT = "dragmesh2-trajectory"
+VERSION = 1
+PHASES = ("approach", "grasp", "drag", "release")
+_VECTORS = {"virtual_xyz": 3, "wrist_rpy": 3, "finger_dofs": 45, "wrist_pos": 3, "wrist_rot": 4}
+
+
+@dataclass(frozen=True)
+class Frame:
+    phase: str
+    step: int
+    virtual_xyz: tuple[float, ...]
+    wrist_rpy: tuple[float, ...]
+    finger_dofs: tuple[float, ...]
+    wrist_pos: tuple[float, ...]
+    wrist_rot: tuple[float, ...]
+    joint_positions: tuple[float, ...]
+    hand_target: tuple[float, ...] | None = None
+
+    @property
+    def hand_q(self) -> np.ndarray:
+        """The 51-d hand configuration in action order."""
+        return np.concatenate([self.virtual_xyz, self.wrist_rpy, self.finger_dofs])
+
+    def to_json(self) -> dict:
+        d = {"phase": self.phase, "step": self.step}
+        for k in (*_VECTORS, "joint_positions"):
+            d[k] = list(getattr(self, k))
+        if self.hand_target is not None:
+            d["hand_target"] = list(self.hand_target)
+        return d
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    frames: tuple[Frame, ...]
+    header: dict = field(default_factory=dict)
+    rho: float = 0.5  # success-threshold fraction (paper Table 7)
+
+    def __post_init__(self):
+        if not self.frames:
+            raise DragMeshError("trajectory has no frames")
+
+    @property
+    def joint_positions(self) -> np.ndarray:
+        return np.array([f.joint_positions for f in self.frames], dtype=np.float64)
+
+    @property
+    def hand_q(self) -> np.ndarray:
+        return np.stack([f.hand_q for f in self.frames])
+
+    @property
+    def phases(self) -> list[str]:
+        return [f.phase for f in self.frames]
+
+    @property
+    def target_index(self) -> int:
+        """Index into ``joint_positions``: the header's, else the joint with the largest range (facts §2)."""
+        if "target" in self.header and "joint_index" in self.header["target"]:
+            return int(self.header["target"]["joint_index"])
+        jp = self.joint_positions
+        return int(np.argmax(jp.max(axis=0) - jp.min(axis=0)))
+
+    @property
+    def target_q(self) -> np.ndarray:
+        return self.joint_positions[:, self.target_index]
+
+    @property
+    def q_min(self) -> float:
+        return float(self.target_q.min())
+
+    @property
+    def q_max(self) -> float:
+        return float(self.target_q.max())
+
+    @property
+    def q_done(self) -> float:
+        """Success threshold q_done = q_min + rho (q_max - q_min)."""
+        return self.q_min + self.rho * (self.q_max - self.q_min)
+
+    @property
+    def drag_start(self) -> int:
+        """First frame of the drag phase (the expert grasp state); fallback min(40, T-1) as the reference."""
+        return next((i for i, p in enumerate(self.phases) if p == "drag"), min(40, len(self.frames) - 1))
+
+    @property
+    def q_start(self) -> float:
+        return float(self.target_q[self.drag_start])
+
+    @property
+    def q_goal(self) -> float:
+        return self.q_max
+
+    def phase_blocks(self) -> list[tuple[str, int, int]]:
+        """Contiguous phases as (phase, first frame, last frame + 1)."""
+        out, start = [], 0
+        ph = self.phases
+        for i in range(1, len(ph) + 1):
+            if i == len(ph) or ph[i] != ph[start]:
+                out.append((ph[start], start, i))
+                start = i
+        return out
+
+    def to_json(self) -> dict:
+        return {"format": FORMAT, "version": VERSION, "header": self.header,
+                "frames": [f.to_json() for f in self.frames]}
+
+
+def _frame(d, i: int, where: str) -> Frame:
+    if not isinstance(d, dict):
+        raise DragMeshError(f"{where}: frame {i} is not an object")
+    missing = [k for k in ("phase", *_VECTORS, "joint_positions") if k not in d]
+    if missing:
+        raise DragMeshError(f"{where}: frame {i} lacks {', '.join(missing)}")
+    vals = {}
+    for k, n in _VECTORS.items():
+        v = d[k]
+        if not isinstance(v, list) or len(v) != n:
+            raise DragMeshError(f"{where}: frame {i} field {k} must be a list of {n} numbers")
+        vals[k] = tuple(float(x) for x in v)
+    jp = d["joint_positions"]
+    if not isinstance(jp, list) or not jp:
+        raise DragMeshError(f"{where}: frame {i} field joint_positions must be a non-empty list")
+    ht = d.get("hand_target")
+    if ht is not None and (not isinstance(ht, list) or len(ht) != 51):
+        raise DragMeshError(f"{where}: frame {i} field hand_target must be a list of 51 numbers")
+    try:
+        jp = tuple(float(x) for x in jp)
+        ht = tuple(float(x) for x in ht) if ht is not None else None
+    except (TypeError, ValueError):
+        raise DragMeshError(f"{where}: frame {i} has a non-numeric value") from None
+    if not all(np.isfinite(jp)) or not all(np.isfinite(np.concatenate(list(vals.values())))):
+        raise DragMeshError(f"{where}: frame {i} has a non-finite value")
+    return Frame(phase=str(d["phase"]), step=int(d.get("step", i)), joint_positions=jp, hand_target=ht, **vals)
+
+
+def parse_trajectory(data, where: str = "trajectory") -> Trajectory:
+    """From decoded JSON: the reference's bare frame list, or the project's ``{"format": ..., "frames": ...}``."""
+    if isinstance(data, list):
+        header = {}
+        frames = data
+    elif isinstance(data, dict) and data.get("format") == FORMAT and isinstance(data.get("frames"), list):
+        if int(data.get("version", 0)) > VERSION:
+            raise DragMeshError(f"{where}: trajectory format version {data['version']} is newer than {VERSION}")
+        header, frames = dict(data.get("header") or {}), data["frames"]
+    else:
+        raise DragMeshError(f"{where}: not a trajectory (expected a list of frames or an object with "
+                            f"format '{FORMAT}' and 'frames')")
+    if not frames:
+        raise DragMeshError(f"{where}: trajectory has no frames")
+    parsed = tuple(_frame(f, i, where) for i, f in enumerate(frames))
+    n = {len(f.joint_positions) for f in parsed}
+    if len(n) != 1:
+        raise DragMeshError(f"{where}: frames disagree on the number of object joints ({sorted(n)})")
+    return Trajectory(frames=parsed, header=header)
+
+
+def read_trajectory(path: str | Path) -> Trajectory:
+    path = Path(path)
+    if not path.is_file():
+        raise DragMeshError(f"{path}: no such trajectory file")
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise DragMeshError(f"{path}: malformed JSON ({e.msg} at line {e.lineno})") from None
+    return parse_trajectory(data, where=str(path))
+
+
+def write_trajectory(traj: Trajectory, path: str | Path) -> Path:
+    """Write atomically. Floats are written with ``repr`` precision, so reading back round-trips exactly."""
+    return atomic_write_text(path, json.dumps(traj.to_json()) + "\n")
