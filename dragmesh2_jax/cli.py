@@ -134,6 +134,38 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def cmd_trajectory(args) -> int:
+    from dragmesh2_jax.assets.gapartnet import load_gapartnet
+    from dragmesh2_jax.trajectory.generator import generate
+    from dragmesh2_jax.trajectory.schema import write_trajectory
+
+    if args.render and not args.render.endswith(".gif"):
+        raise DragMeshError(f"{args.render}: only .gif videos are supported")
+    obj = load_gapartnet(args.object)
+    traj = generate(obj, seed=args.seed)
+    write_trajectory(traj, args.out)
+    q = traj.header["quality"]
+    blocks = ", ".join(f"{p} {b - a}" for p, a, b in traj.phase_blocks())
+    print(f"{args.out}: {len(traj.frames)} frames ({blocks}); target {traj.header['target']['joint_name']} "
+          f"{traj.header['target']['type']}; q_start {traj.q_start:.4f} q_done {traj.q_done:.4f} "
+          f"q_max {traj.q_max:.4f}; quality {'PASSED' if q['passed'] else 'FAILED: ' + '; '.join(q['reasons'])}")
+    if args.render:
+        from dragmesh2_jax.render import render_trajectory_gif
+
+        used = render_trajectory_gif(obj, traj, args.render)
+        print(f"video {args.render} ({used} renderer)")
+    return 0 if q["passed"] else 1
+
+
+def cmd_dataset(args) -> int:
+    from dragmesh2_jax.trajectory.dataset import build_dataset
+
+    res = build_dataset(args.objects, args.out, seed=args.seed, progress=not args.quiet)
+    print(Path(res.summary).read_text())
+    print(f"manifest {res.manifest}; {len(res.records) - len(res.failures)} of {len(res.records)} passed")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="dragmesh2", description="DragMesh-2 in JAX/MuJoCo-MJX")
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -154,6 +186,22 @@ def build_parser() -> argparse.ArgumentParser:
     ps.add_argument("--out", required=True)
     osub.add_parser("list", help="categories and the packaged default objects")
     po.set_defaults(func=cmd_objects)
+
+    pt = sub.add_parser("trajectory", help="generate one reference trajectory (exit 1 if it fails the gate)")
+    pt.add_argument("--object", required=True)
+    pt.add_argument("--out", required=True)
+    pt.add_argument("--seed", type=int, default=0)
+    pt.add_argument("--render", metavar="FILE.gif", help="write a video of the executed trajectory")
+    pt.set_defaults(func=cmd_trajectory)
+
+    pds = sub.add_parser("dataset", help="trajectory datasets")
+    dsub = pds.add_subparsers(dest="dataset_cmd", required=True)
+    pb = dsub.add_parser("build", help="one trajectory per object folder; resumable")
+    pb.add_argument("--objects", nargs="+", required=True, help="object folders or folders of object folders")
+    pb.add_argument("--out", required=True)
+    pb.add_argument("--seed", type=int, default=0)
+    pb.add_argument("--quiet", action="store_true")
+    pds.set_defaults(func=cmd_dataset)
 
     pd = sub.add_parser("demo", help="the main job on the built-in default object")
     pd.add_argument("--object", help="object folder (default: the packaged drawer cabinet)")

@@ -136,3 +136,26 @@ def render_png(model: mujoco.MjModel, data: mujoco.MjData, path: str | Path, tar
         png = _render_matplotlib(model, data, target, width, height)
     atomic_write_bytes(path, png)
     return used
+
+
+def render_trajectory_gif(obj, traj, path: str | Path, every: int = 15, width: int = 480, height: int = 360) -> str:
+    """A GIF of a trajectory replayed kinematically (recorded hand q and object joints) every ``every`` frames."""
+    from PIL import Image
+
+    from dragmesh2_jax.scene import SceneConfig, build_scene
+
+    sc = build_scene(obj, SceneConfig(scale=traj.header.get("scene", {}).get("scale", 0.4)))
+    d = sc.initial_data()
+    images, used = [], "matplotlib"
+    tmp = Path(path).with_suffix(".frame.png")
+    for f in traj.frames[::every]:
+        d.qpos[sc.ids.hand_qpos] = f.hand_q
+        d.qpos[sc.ids.target_qpos] = f.joint_positions[traj.target_index]
+        mujoco.mj_forward(sc.model, d)
+        used = render_png(sc.model, d, tmp, target=sc.handle.centre, width=width, height=height)
+        images.append(Image.open(io.BytesIO(tmp.read_bytes())).convert("RGB"))
+    tmp.unlink(missing_ok=True)
+    buf = io.BytesIO()
+    images[0].save(buf, format="GIF", save_all=True, append_images=images[1:], duration=250, loop=0)
+    atomic_write_bytes(path, buf.getvalue())
+    return used

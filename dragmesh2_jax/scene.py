@@ -165,7 +165,8 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     lower, upper = (s * j.lower, s * j.upper) if not j.is_revolute else (j.lower, j.upper)
     ET.SubElement(target_body, "joint", name=TARGET_JOINT, type="hinge" if j.is_revolute else "slide",
                   pos=_fmt(s * j.origin), axis=_fmt(j.axis), range=f"{lower:.7g} {upper:.7g}", ref=f"{lower:.7g}",
-                  damping=f"{config.damping}", armature=f"{config.armature}", limited="true")
+                  damping=f"{config.damping}", armature=f"{config.armature}", limited="true",
+                  solreflimit=f"{config.hand.contact_timeconst} 1")
     for name, link in obj.links.items():
         in_target = name in t.attached_links
         # Only handles that can be touched are decomposed (decomposition is the slow, cached step).
