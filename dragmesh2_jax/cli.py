@@ -166,6 +166,54 @@ def cmd_dataset(args) -> int:
     return 0
 
 
+def _floats_arg(text: str, what: str) -> list[float]:
+    try:
+        vals = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise DragMeshError(f"{what}: expected comma-separated numbers, got {text!r}") from None
+    if not vals:
+        raise DragMeshError(f"{what}: no values given")
+    return vals
+
+
+def load_task(object_dir: str, trajectory: str | None, backend: str = "auto", impl: str = "jax", **overrides):
+    """Object + trajectory (generated when not given) -> PullTask."""
+    from dragmesh2_jax.assets.gapartnet import load_gapartnet
+    from dragmesh2_jax.scene import build_scene
+    from dragmesh2_jax.task.config import TaskConfig
+    from dragmesh2_jax.task.env import PullTask
+    from dragmesh2_jax.trajectory.generator import generate
+    from dragmesh2_jax.trajectory.schema import read_trajectory
+
+    config = TaskConfig(backend=backend, impl=impl, **overrides)  # validated before anything compiles
+    obj = load_gapartnet(object_dir)
+    scene = build_scene(obj)
+    traj = read_trajectory(trajectory) if trajectory else generate(obj, scene=scene)
+    return PullTask(scene, traj, config)
+
+
+def cmd_track(args) -> int:
+    from dragmesh2_jax.baselines.tracking import track
+
+    dampings = _floats_arg(args.damping, "--damping")
+    task = load_task(args.object, args.trajectory, args.backend, args.impl)
+    rows = track(task, dampings, seed=args.seed)
+    if args.json:
+        print(json.dumps({"object_id": task.scene.obj.object_id, "backend": task.backend.name, "results": rows}))
+        return 0
+    print(f"tracking baseline on {task.scene.obj.object_id} ({task.backend.name} backend); "
+          f"q_start {task.traj.q_start:.4f}, q_done {task.traj.q_done:.4f}")
+    print("| damping | success | final progress |\n|---|---|---|")
+    for r in rows:
+        print(f"| x{r['damping']:g} | {int(r['success'])} | {r['final_progress']:.3f} |")
+    return 0
+
+
+def _add_backend_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
+    p.add_argument("--impl", default="jax", help="MJX implementation: jax | warp")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="dragmesh2", description="DragMesh-2 in JAX/MuJoCo-MJX")
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -202,6 +250,15 @@ def build_parser() -> argparse.ArgumentParser:
     pb.add_argument("--seed", type=int, default=0)
     pb.add_argument("--quiet", action="store_true")
     pds.set_defaults(func=cmd_dataset)
+
+    pk = sub.add_parser("track", help="trajectory-tracking baseline: success per damping multiplier")
+    pk.add_argument("--object", required=True)
+    pk.add_argument("--trajectory", help="trajectory file (default: generate one)")
+    pk.add_argument("--damping", default="1,2,4")
+    pk.add_argument("--seed", type=int, default=0)
+    pk.add_argument("--json", action="store_true")
+    _add_backend_args(pk)
+    pk.set_defaults(func=cmd_track)
 
     pd = sub.add_parser("demo", help="the main job on the built-in default object")
     pd.add_argument("--object", help="object folder (default: the packaged drawer cabinet)")

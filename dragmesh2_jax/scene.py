@@ -29,6 +29,8 @@ from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, link_pie
 from dragmesh2_jax.assets.gapartnet import GAPartNetObject, HandleFrame
 from dragmesh2_jax.errors import DragMeshError
 
+#: Sensors (12 values) the C backend reads: palm centre, handle centre, handle x (long) and y (normal) axes.
+SENSORS = ("palm_pos", "handle_pos", "handle_xaxis", "handle_yaxis")
 TARGET_JOINT = "target_joint"
 TARGET_BODY = "object_target"
 HANDLE_SITE = "handle"
@@ -199,6 +201,12 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
                   rgba="0 1 0 1", group="3")
     obj_body.append(target_body)
     root.append(actuators)
+    sensor = ET.SubElement(root, "sensor")
+    palm_site = hand_lib.palm_site_name(config.hand.side)
+    ET.SubElement(sensor, "framepos", name=SENSORS[0], objtype="site", objname=palm_site)
+    ET.SubElement(sensor, "framepos", name=SENSORS[1], objtype="site", objname=HANDLE_SITE)
+    ET.SubElement(sensor, "framexaxis", name=SENSORS[2], objtype="site", objname=HANDLE_SITE)
+    ET.SubElement(sensor, "frameyaxis", name=SENSORS[3], objtype="site", objname=HANDLE_SITE)
     xml = ET.tostring(root, encoding="unicode")
     try:
         model = mujoco.MjModel.from_xml_string(xml)

@@ -222,12 +222,17 @@ def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorPar
     achieved = float(traj.target_q[drag[0]: drag[-1] + 1].max() - q_start)
     opened = achieved >= params.min_open_fraction * extent
     q_done = traj.q_done
-    reached = bool(traj.target_q.max() >= q_done) and opened
+    # q_done comes from all frames (facts §4); contact must pass it during the drag itself, so a part that
+    # only falls open after the release (gravity) does not count
+    reached = bool(traj.target_q[drag[0]: drag[-1] + 1].max() >= q_done) and opened
     within = stats["hand_limit_excess"] <= params.limit_tolerance
     shallow = stats["max_penetration_m"] <= params.max_penetration
     reasons = []
     if not opened:
         reasons.append(f"contact opened the joint by {achieved:.4f} of the planned {extent:.4f}")
+    elif not reached:
+        reasons.append(f"the drag reached q = {q_start + achieved:.4f} < q_done = {q_done:.4f} (the part moved on "
+                       f"after the release)")
     if not within:
         reasons.append(f"hand left its joint limits by {stats['hand_limit_excess']:.4f}")
     if not shallow:

@@ -1,0 +1,261 @@
+"""The contact-driven pulling task (paper §3.1-3.2, Appendix A) as pure functions of one world's ``State``.
+
+``reset(key) -> State`` and ``step(state, action) -> State`` act on one world; batch them with ``jax.vmap``
+and roll them out with ``jax.lax.scan`` (see :func:`make_batched`). Finished worlds reset inside ``step``.
+
+Units and frames: world frame, metres, radians, seconds. One step = ``control_dt`` (1/60 s) = ``substeps``
+physics steps. The policy acts only on the hand: target = clip(q_hand + alpha a, limits); the target object
+joint moves only through contact.
+
+Observation (kept as separate fields, so each policy takes what it may):
+  obs.state    s_t (120): hand q (51), hand qd (51), handle position (3), handle orientation as its long axis
+               and outward normal (6), palm-to-handle vector (3), distance d (1), object q and qd (2), and
+               phi = [progress, (q_done - q) / Delta, Delta = q_goal - q_start] (3).
+  obs.history  H_t (L=16, 102): tokens h = [e_t, a_{t-1}], e_t = PD target - hand q, oldest first; zeros at
+               reset except the newest token [e_0, 0].
+  obs.aux      y_t (4): [q_t - q_{t-K}, max_{t-K..t} d, 1(max d > d_detach), max_{t-K..t} ||e||] with K = 5.
+               A training target only: never a policy input.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.physics.base import Backend, Kinematics
+from dragmesh2_jax.scene import Scene
+from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.rewards import reward_terms
+from dragmesh2_jax.trajectory.schema import Trajectory
+
+STATE_SIZE = 120
+TOKEN_SIZE = 102
+AUX_SIZE = 4
+METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "action_l2", "palm_dist", "reward",
+           "nonfinite", "episode_return", "episode_length", "q")
+
+
+@struct.dataclass
+class Obs:
+    state: jnp.ndarray
+    history: jnp.ndarray
+    aux: jnp.ndarray
+
+
+@struct.dataclass
+class State:
+    physics: Any
+    obs: Obs
+    reward: jnp.ndarray
+    done: jnp.ndarray  # the episode ended at this step (terminated or truncated); obs is already the new one's
+    terminated: jnp.ndarray  # success, detachment failure or non-finite physics: no bootstrap
+    truncated: jnp.ndarray  # time limit: bootstrap from the value
+    metrics: dict
+    info: dict
+
+
+@struct.dataclass
+class TaskParams:
+    """Per-object task boundary from the reference trajectory (paper eq. done/progress)."""
+
+    q_start: jnp.ndarray
+    q_goal: jnp.ndarray
+    q_done: jnp.ndarray
+    damping: jnp.ndarray  # nominal target-joint damping
+    hand_lo: jnp.ndarray
+    hand_hi: jnp.ndarray
+
+
+def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
+    """A clear error if ``traj`` was not made for ``scene``'s object (before anything compiles)."""
+    obj = scene.obj
+    h = traj.header
+    if h.get("object_id") not in (None, obj.object_id):
+        raise DragMeshError(f"trajectory is for object {h['object_id']}, not {obj.object_id}")
+    n = len(traj.frames[0].joint_positions)
+    if n != len(obj.movable_joints):
+        raise DragMeshError(f"trajectory has {n} object joints but object {obj.object_id} has "
+                            f"{len(obj.movable_joints)} movable joints")
+    names = [j.name for j in obj.movable_joints]
+    if names[traj.target_index] != obj.target.joint.name:
+        raise DragMeshError(f"trajectory moves joint {names[traj.target_index]} but the target of object "
+                            f"{obj.object_id} is {obj.target.joint.name}")
+    if not traj.q_max - traj.q_min > 1e-6:
+        raise DragMeshError("trajectory never moves its target joint (zero motion range)")
+
+
+def make_backend(scene: Scene, traj: Trajectory, config: TaskConfig) -> Backend:
+    substeps = config.control_dt / scene.config.timestep
+    if abs(substeps - round(substeps)) > 1e-6 or round(substeps) < 1:
+        raise DragMeshError(f"control_dt {config.control_dt} is not a whole number of timesteps "
+                            f"{scene.config.timestep}")
+    start = traj.frames[traj.drag_start]
+    args = (scene, int(round(substeps)), start.hand_q, float(start.joint_positions[traj.target_index]),
+            config.settle_substeps)
+    if config.resolved_backend() == "mjx":
+        from dragmesh2_jax.physics.mjx_backend import MjxBackend
+
+        return MjxBackend(*args, impl=config.impl)
+    from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
+
+    return MujocoBackend(*args, nthread=config.nthread)
+
+
+class PullTask:
+    """One object, one trajectory, one config. ``reset``/``step`` are pure per-world functions."""
+
+    def __init__(self, scene: Scene, traj: Trajectory, config: TaskConfig = TaskConfig()):
+        check_trajectory_matches(scene, traj)
+        self.scene, self.traj, self.config = scene, traj, config
+        self.backend = make_backend(scene, traj, config)
+        lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
+        self.params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
+                                 q_done=jnp.float32(traj.q_done), damping=jnp.float32(scene.config.damping),
+                                 hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32))
+        self.action_size = 51
+        self.substeps = self.backend.substeps
+
+    # ------------------------------------------------------------------------------------------ helpers
+    def _phi(self, q):
+        p = self.params
+        delta = jnp.maximum(p.q_goal - p.q_start, 1e-6)
+        return jnp.stack([jnp.maximum(0.0, (q - p.q_start) / delta), (p.q_done - q) / delta, delta])
+
+    def progress(self, q):
+        """p_t = max(0, (q - q_start) / (q_goal - q_start)) (paper eq. progress)."""
+        return self._phi(q)[0]
+
+    def _state_obs(self, k: Kinematics) -> jnp.ndarray:
+        rel = k.handle_pos - k.palm
+        d = jnp.linalg.norm(rel)
+        return jnp.concatenate([k.hand_q, k.hand_qd, k.handle_pos, k.handle_rot, rel, d[None], k.obj_q[None],
+                                k.obj_qd[None], self._phi(k.obj_q)]).astype(jnp.float32)
+
+    def _sample_scales(self, key):
+        c = self.config
+        k1, k2 = jax.random.split(key)
+        damp = jax.random.uniform(k1, (), minval=c.damping_range[0], maxval=c.damping_range[1])
+        fric = jnp.float32(1.0) if c.friction_range is None else jax.random.uniform(
+            k2, (), minval=c.friction_range[0], maxval=c.friction_range[1])
+        return damp, fric
+
+    # --------------------------------------------------------------------------------------------- API
+    def reset(self, key: jax.Array, damping_scale: jax.Array | float | None = None) -> State:
+        """A new episode at the expert grasp state (post-settle). The damping multiplier is sampled from
+        ``damping_range`` (training) unless ``damping_scale`` (or ``config.damping_fixed``) fixes it; a fixed
+        multiplier is kept by every automatic reset of that world (evaluation cells)."""
+        key, sub = jax.random.split(key)
+        damp, fric = self._sample_scales(sub)
+        if damping_scale is None and self.config.damping_fixed is not None:
+            damping_scale = self.config.damping_fixed
+        fixed = damping_scale is not None
+        if fixed:
+            damp = jnp.asarray(damping_scale, jnp.float32)
+        return self._reset(key, damp, fric, jnp.bool_(fixed))
+
+    def _reset(self, key, damp, fric, fixed) -> State:
+        c = self.config
+        ps = self.backend.reset_state()
+        k = self.backend.kinematics(ps)
+        ctrl = jnp.clip(jnp.asarray(self.traj.frames[self.traj.drag_start].hand_q, jnp.float32), self.params.hand_lo,
+                        self.params.hand_hi)
+        e = (ctrl - k.hand_q).astype(jnp.float32)
+        history = jnp.zeros((c.history_len, TOKEN_SIZE), jnp.float32).at[-1, :51].set(e)
+        d = jnp.linalg.norm(k.handle_pos - k.palm).astype(jnp.float32)
+        K1 = c.aux_window + 1
+        info = {
+            "rng": key, "step": jnp.int32(0), "damping_scale": jnp.asarray(damp, jnp.float32),
+            "friction_scale": jnp.asarray(fric, jnp.float32), "fixed_damping": fixed,
+            "armed": d <= c.d_detach, "q_prev": k.obj_q.astype(jnp.float32), "ctrl": ctrl,
+            "d_ring": jnp.full((K1,), d), "q_ring": jnp.full((K1,), k.obj_q, jnp.float32),
+            "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
+        }
+        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info))
+        zero = jnp.float32(0.0)
+        metrics = {m: zero for m in METRICS}
+        metrics["q"] = k.obj_q.astype(jnp.float32)
+        return State(physics=ps, obs=obs, reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
+                     truncated=jnp.bool_(False), metrics=metrics, info=info)
+
+    def _aux(self, info) -> jnp.ndarray:
+        q, dmax = info["q_ring"], info["d_ring"].max()
+        return jnp.stack([q[-1] - q[0], dmax, (dmax > self.config.d_detach).astype(jnp.float32),
+                          info["e_ring"].max()]).astype(jnp.float32)
+
+    def step(self, state: State, action: jnp.ndarray) -> State:
+        """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits)."""
+        a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
+        k0 = self.backend.kinematics(state.physics)
+        ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
+        return self._advance(state, ctrl, a)
+
+    def step_target(self, state: State, target: jnp.ndarray) -> State:
+        """One control step with the hand PD target given directly (the trajectory-tracking baseline); the
+        history token's action part is then (target - q) / alpha clipped to [-1, 1]."""
+        k0 = self.backend.kinematics(state.physics)
+        ctrl = jnp.clip(target.astype(jnp.float32), self.params.hand_lo, self.params.hand_hi)
+        a = jnp.clip((ctrl - k0.hand_q) / self.config.alpha, -1.0, 1.0)
+        return self._advance(state, ctrl, a)
+
+    def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray) -> State:
+        c, p, info = self.config, self.params, state.info
+        ps = self.backend.step(state.physics, ctrl, p.damping * info["damping_scale"], info["friction_scale"])
+        k = self.backend.kinematics(ps)
+        finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(x)) for x in jax.tree.leaves(k)]))
+        k = jax.tree.map(lambda x: jnp.where(finite, x, 0.0), k)
+
+        rel = k.handle_pos - k.palm
+        d = jnp.linalg.norm(rel)
+        q = k.obj_q.astype(jnp.float32)
+        success = q >= p.q_done
+        detach = info["armed"] & (d > c.d_detach) & ~success
+        step = info["step"] + 1
+        terminated = success | detach | ~finite
+        truncated = (step >= c.episode_length) & ~terminated
+        terms = reward_terms(c.reward, a, d, q - info["q_prev"], success.astype(jnp.float32),
+                             detach.astype(jnp.float32))
+        reward = jnp.where(finite, sum(terms.values()), 0.0).astype(jnp.float32)
+
+        e = (ctrl - k.hand_q).astype(jnp.float32)
+        token = jnp.concatenate([e, a])
+        history = jnp.concatenate([state.obs.history[1:], token[None]], axis=0)
+        ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
+        ep_return = info["episode_return"] + reward
+        new_info = {**info, "step": step, "armed": info["armed"] | (d <= c.d_detach), "q_prev": q, "ctrl": ctrl,
+                    "d_ring": ring(info["d_ring"], d), "q_ring": ring(info["q_ring"], q),
+                    "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)), "episode_return": ep_return}
+        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(new_info))
+        done = terminated | truncated
+        metrics = {
+            "success": success.astype(jnp.float32), "progress": self.progress(q), "detach": detach.astype(jnp.float32),
+            "truncated": truncated.astype(jnp.float32), "action_abs_max": jnp.max(jnp.abs(a)),
+            "action_l2": jnp.linalg.norm(a), "palm_dist": d.astype(jnp.float32), "reward": reward,
+            "nonfinite": (~finite).astype(jnp.float32), "episode_return": ep_return,
+            "episode_length": step.astype(jnp.float32), "q": q,
+        }
+        new = State(physics=ps, obs=obs, reward=reward, done=done, terminated=terminated, truncated=truncated,
+                    metrics=metrics, info=new_info)
+        # Automatic reset of a finished world (the returned reward/done/metrics belong to the finished step).
+        key, sub, sub2 = jax.random.split(info["rng"], 3)
+        damp, fric = self._sample_scales(sub)
+        damp = jnp.where(info["fixed_damping"], info["damping_scale"], damp)
+        fresh = self._reset(sub2, damp, fric, info["fixed_damping"])
+        new = new.replace(info={**new.info, "rng": key})
+        pick = lambda x, y: jnp.where(done, x, y)  # noqa: E731
+        return new.replace(physics=jax.tree.map(pick, fresh.physics, new.physics),
+                           obs=jax.tree.map(pick, fresh.obs, new.obs),
+                           info=jax.tree.map(pick, {**fresh.info, "rng": key}, new.info))
+
+
+def make_batched(task: PullTask):
+    """(reset, step) over a leading world axis: ``reset(keys[N]) -> State[N]``, ``step(State[N], a[N, 51])``."""
+    return jax.vmap(task.reset), jax.vmap(task.step)
+
+
+def as_numpy_metrics(metrics: dict) -> dict[str, np.ndarray]:
+    return {k: np.asarray(v) for k, v in metrics.items()}
