@@ -11,8 +11,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 from dragmesh2_jax.errors import DragMeshError
 
 
@@ -80,57 +78,6 @@ def cmd_objects(args) -> int:
         for p in sorted(procedural.default_objects_dir().iterdir()):
             if p.is_dir():
                 print(p)
-    return 0
-
-
-def cmd_demo(args) -> int:
-    """The main job on the built-in default: inspect, place the hand at the handle, a short rollout, a picture."""
-    import mujoco
-
-    from dragmesh2_jax.assets.gapartnet import load_gapartnet, opening_direction
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.io import atomic_write_json
-    from dragmesh2_jax.render import render_png
-    from dragmesh2_jax.scene import SceneConfig, build_scene
-    from dragmesh2_jax.trajectory import grasp
-
-    out = Path(args.out)
-    folder = Path(args.object) if args.object else default_object()
-    t0 = time.time()
-    obj = load_gapartnet(folder)
-    scene = build_scene(obj, SceneConfig())
-    h, ids, m = scene.handle, scene.ids, scene.model
-    open_dir = opening_direction(obj.target.part, obj.target.joint, obj.target.handle.centre)
-    R = grasp.wrist_orientation(h, open_dir)
-    wrist = grasp.wrist_position(grasp.palm_target(h, R), R)
-    q_grasp = grasp.hand_q(wrist, R, grasp.grasp_pose(h.thickness))
-    q_pre = grasp.hand_q(wrist + 0.08 * h.normal, R, grasp.open_pose())
-    d = scene.initial_data()
-    d.qpos[ids.hand_qpos] = q_pre
-    d.ctrl[ids.hand_actuators] = q_pre
-    mujoco.mj_forward(m, d)
-    n = int(round(1.5 / m.opt.timestep))
-    for k in range(n):  # approach over 0.75 s, then close the fingers
-        a = min(1.0, 2 * k / n)
-        target = q_pre + a * (np.r_[q_grasp[:6], q_pre[6:]] - q_pre)
-        if a >= 1.0:
-            target = q_grasp
-        d.ctrl[ids.hand_actuators] = np.clip(target, ids.hand_range[:, 0], ids.hand_range[:, 1])
-        mujoco.mj_step(m, d)
-    palm = d.site_xpos[ids.palm_site]
-    result = {
-        "object": obj.summary(), "scene": scene.stats,
-        "rollout": {"seconds": 1.5, "finite": bool(np.isfinite(d.qpos).all()),
-                    "palm_handle_distance_m": round(float(np.linalg.norm(palm - d.site_xpos[ids.handle_site])), 4),
-                    "target_q": round(float(d.qpos[ids.target_qpos]), 5), "ncon": int(d.ncon)},
-    }
-    result["picture"] = {"path": str(out / "scene.png"),
-                         "renderer": render_png(m, d, out / "scene.png", target=h.centre)}
-    result["wall_s"] = round(time.time() - t0, 2)
-    atomic_write_json(out / "demo.json", result)
-    print(json.dumps(result["rollout"]), file=sys.stderr)
-    print(f"demo: {obj.object_id} ({obj.category}); hand placed at the handle and closed; "
-          f"picture {result['picture']['path']} ({result['picture']['renderer']}); summary {out / 'demo.json'}")
     return 0
 
 
@@ -209,9 +156,179 @@ def cmd_track(args) -> int:
     return 0
 
 
+def cmd_bench(args) -> int:
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.bench import bench_env
+
+    rows = []
+    for backend in args.backend.split(","):
+        task = load_task(args.object or str(default_object()), args.trajectory, backend.strip(), args.impl)
+        for n in _floats_arg(args.num_envs, "--num-envs"):
+            steps = args.steps if backend.strip() != "mjx" or args.mjx_steps is None else args.mjx_steps
+            rows.append(bench_env(task, int(n), steps))
+            r = rows[-1]
+            print(f"{r['backend']:7s} envs {r['num_envs']:5d}  compile {r['compile_s']:7.2f} s  "
+                  f"control {r['control_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s",
+                  file=sys.stderr)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    return 0
+
+
 def _add_backend_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
     p.add_argument("--impl", default="jax", help="MJX implementation: jax | warp")
+
+
+def make_trainer(object_dir: str, trajectory: str | None, method_name: str, backend: str, impl: str, **ppo):
+    from dragmesh2_jax.policies.methods import get_method, task_overrides
+    from dragmesh2_jax.ppo.config import PPOConfig
+    from dragmesh2_jax.ppo.train import Trainer
+
+    method = get_method(method_name)
+    config = PPOConfig(**{k: v for k, v in ppo.items() if v is not None})
+    task = load_task(object_dir, trajectory, backend, impl, **task_overrides(method))
+    return Trainer(task, method, config)
+
+
+def cmd_train(args) -> int:
+    from dragmesh2_jax.ppo.runner import train
+
+    if args.resume:
+        meta = _run_meta(Path(args.out))
+        ppo = {**_ppo_from_meta(meta), **({"epochs": args.epochs} if args.epochs else {})}
+        trainer = make_trainer(meta["object"], str(Path(args.out) / meta["trajectory"]), meta["method"],
+                               args.backend, args.impl, **ppo)
+    else:
+        trainer = make_trainer(args.object, args.trajectory, args.method, args.backend, args.impl,
+                               epochs=args.epochs, num_envs=args.num_envs, seed=args.seed,
+                               lr_schedule=args.lr_schedule)
+    _, rows = train(trainer, args.out, args.object or meta["object"], resume=args.resume,
+                    save_every=args.save_every, progress=not args.quiet)
+    last = rows[-1] if rows else {}
+    print(f"{args.out}: {trainer.method.name} on {trainer.task.scene.obj.object_id} ({trainer.task.backend.name}), "
+          f"{last.get('epoch', 0)} epochs, training success {last.get('success', 0):.2f}, "
+          f"reward {last.get('reward', 0):.2f}, {last.get('seconds', 0):.0f} s")
+    return 0
+
+
+def _ppo_from_meta(meta: dict) -> dict:
+    return {**meta["ppo"], "aux_warmup": tuple(meta["ppo"]["aux_warmup"]),
+            "aux_channel_weights": tuple(meta["ppo"]["aux_channel_weights"])}
+
+
+def _run_meta(run_dir: Path) -> dict:
+    path = run_dir / "run.json"
+    if not path.is_file():
+        raise DragMeshError(f"{run_dir}: not a training run folder (no run.json)")
+    return json.loads(path.read_text())
+
+
+def load_run(checkpoint: str, backend: str = "auto", impl: str = "jax"):
+    """(trainer, train state) from a checkpoint inside a run folder."""
+    from dragmesh2_jax.ppo.runner import load_checkpoint
+
+    ck = Path(checkpoint)
+    if ck.is_dir():
+        ck = ck / "checkpoints" / "final.npz"
+    run_dir = ck.parent.parent
+    meta = _run_meta(run_dir)
+    trainer = make_trainer(meta["object"], str(run_dir / meta["trajectory"]), meta["method"], backend, impl,
+                           **_ppo_from_meta(meta))
+    return trainer, load_checkpoint(trainer.init(), ck), run_dir
+
+
+def cmd_evaluate(args) -> int:
+    from dragmesh2_jax.evaluation.evaluate import MODES, evaluate, markdown_table
+    from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+
+    modes = [m.strip() for m in args.mode.split(",") if m.strip()]
+    bad = [m for m in modes if m not in MODES]
+    if bad or not modes:
+        raise DragMeshError(f"--mode: unknown mode(s) {bad} (choose from det, stoch)")
+    if args.episodes < 1:
+        raise DragMeshError("--episodes must be >= 1")
+    dampings = _floats_arg(args.damping, "--damping")
+    trainer, ts, run_dir = load_run(args.checkpoint, args.backend, args.impl)
+    result = evaluate(trainer, ts, dampings, modes, args.episodes, seed=args.seed)
+    result["checkpoint"] = str(args.checkpoint)
+    stem = Path(args.checkpoint).stem if Path(args.checkpoint).suffix else "final"
+    atomic_write_json(run_dir / f"eval_{stem}.json", result)
+    atomic_write_text(run_dir / f"eval_{stem}.md", markdown_table(result) + "\n")
+    print(json.dumps(result, indent=1) if args.json else markdown_table(result))
+    return 0
+
+
+def cmd_demo(args) -> int:
+    """The main job on the built-in default: trajectory -> PICA training -> evaluation x1/x2/x4 -> report."""
+    import jax
+
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
+    from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+    from dragmesh2_jax.ppo.runner import train
+
+    gpu = jax.default_backend() != "cpu"
+    epochs = args.epochs or (150 if gpu else 60)
+    out = Path(args.out)
+    folder = str(args.object or default_object())
+    print(f"dragmesh2 demo: trajectory -> PICA ({epochs} epochs x 64 envs x 32 steps) -> evaluation at damping "
+          f"x1/x2/x4; {'GPU: full preset' if gpu else 'CPU: small preset, about 5-10 minutes on 2 cores'}",
+          file=sys.stderr)
+    t0 = time.time()
+    trainer = make_trainer(folder, args.trajectory, "pica", args.backend, "jax", epochs=epochs, seed=args.seed)
+    traj = trainer.task.traj
+    if (out / "log.jsonl").exists():
+        raise DragMeshError(f"{out}: already holds a demo run (choose another --out)")
+    ts, rows = train(trainer, out, folder, progress=not args.quiet, save_every=max(epochs // 3, 1))
+    result = evaluate(trainer, ts, [1.0, 2.0, 4.0], ["det", "stoch"], episodes=20, seed=args.seed)
+    atomic_write_json(out / "eval_final.json", result)
+    _plot_success(result, out / "success_vs_damping.png")
+    q = traj.header.get("quality", {})
+    report = [
+        f"# DragMesh-2 demo: PICA on {trainer.task.scene.obj.object_id} ({trainer.task.scene.obj.category})", "",
+        f"- object: `{folder}`; target `{trainer.task.scene.obj.target.joint.name}` "
+        f"({'revolute' if trainer.task.scene.ids.target_is_revolute else 'prismatic'})",
+        f"- reference trajectory: {len(traj.frames)} frames, quality gate {'passed' if q.get('passed') else 'n/a'}; "
+        f"q_start {traj.q_start:.4f}, q_done {traj.q_done:.4f}, q_goal {traj.q_goal:.4f}",
+        f"- training: {epochs} epochs x {trainer.config.num_envs} envs x {trainer.config.rollout_len} steps on the "
+        f"{trainer.task.backend.name} backend; final training success {rows[-1]['success']:.2f}, "
+        f"{rows[-1]['seconds']:.0f} s",
+        f"- wall time (all stages): {time.time() - t0:.0f} s on {jax.default_backend()}", "",
+        "## Evaluation (20 episodes per cell)", "", markdown_table(result), "",
+        "![success vs damping](success_vs_damping.png)", "",
+    ]
+    atomic_write_text(out / "report.md", "\n".join(report))
+    print("\n".join(report))
+    print(f"report: {out / 'report.md'}", file=sys.stderr)
+    return 0
+
+
+def _plot_success(result: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dragmesh2_jax.io import atomic_write_bytes
+
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for mode in ("det", "stoch"):
+        rs = [r for r in result["cells"] if r["mode"] == mode]
+        ax.plot([r["damping"] for r in rs], [r["success_rate"] for r in rs], "o-", label=mode)
+    ax.set_xscale("log", base=2)
+    ax.set_xlabel("damping multiplier")
+    ax.set_ylabel("success rate")
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_title(f"{result['method']} on {result['object_id']}")
+    ax.legend()
+    fig.tight_layout()
+    import io as _io
+
+    buf = _io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120)
+    plt.close(fig)
+    atomic_write_bytes(path, buf.getvalue())
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -260,9 +377,52 @@ def build_parser() -> argparse.ArgumentParser:
     _add_backend_args(pk)
     pk.set_defaults(func=cmd_track)
 
-    pd = sub.add_parser("demo", help="the main job on the built-in default object")
+    pbe = sub.add_parser("bench", help="benchmarks")
+    bsub = pbe.add_subparsers(dest="bench_cmd", required=True)
+    pbenv = bsub.add_parser("env", help="physics steps/s of the task per backend and batch size")
+    pbenv.add_argument("--object", help="object folder (default: the packaged drawer)")
+    pbenv.add_argument("--trajectory")
+    pbenv.add_argument("--num-envs", default="1,16,64,256")
+    pbenv.add_argument("--steps", type=int, default=50, help="control steps per timed run")
+    pbenv.add_argument("--mjx-steps", type=int, help="control steps for the MJX backend (slow on a CPU)")
+    pbenv.add_argument("--json", action="store_true")
+    _add_backend_args(pbenv)
+    pbe.set_defaults(func=cmd_bench)
+
+    ptr = sub.add_parser("train", help="train a policy with PPO")
+    ptr.add_argument("--method", default="pica", help="pica | state_only | flat_history | gru | transformer | "
+                                                       "gla_only | pica_flat")
+    ptr.add_argument("--object", help="object folder")
+    ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
+    ptr.add_argument("--out", required=True, help="run folder")
+    ptr.add_argument("--epochs", type=int)
+    ptr.add_argument("--num-envs", type=int)
+    ptr.add_argument("--seed", type=int)
+    ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"])
+    ptr.add_argument("--save-every", type=int, default=10)
+    ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
+    ptr.add_argument("--quiet", action="store_true")
+    _add_backend_args(ptr)
+    ptr.set_defaults(func=cmd_train)
+
+    pev = sub.add_parser("evaluate", help="evaluate a checkpoint: damping x mode cells, robustness summary")
+    pev.add_argument("--checkpoint", required=True, help="checkpoints/*.npz of a run (or the run folder)")
+    pev.add_argument("--damping", default="1,2,4")
+    pev.add_argument("--mode", default="det,stoch")
+    pev.add_argument("--episodes", type=int, default=20)
+    pev.add_argument("--seed", type=int, default=42)
+    pev.add_argument("--json", action="store_true")
+    _add_backend_args(pev)
+    pev.set_defaults(func=cmd_evaluate)
+
+    pd = sub.add_parser("demo", help="the main job: trajectory, PICA training, evaluation, report")
     pd.add_argument("--object", help="object folder (default: the packaged drawer cabinet)")
+    pd.add_argument("--trajectory")
     pd.add_argument("--out", default="out/demo")
+    pd.add_argument("--epochs", type=int, help="default: 60 on a CPU, 150 on a GPU")
+    pd.add_argument("--seed", type=int, default=0)
+    pd.add_argument("--quiet", action="store_true")
+    pd.add_argument("--backend", default="auto")
     pd.set_defaults(func=cmd_demo)
     return p
 

@@ -24,8 +24,9 @@ def drag_targets(task: PullTask) -> np.ndarray:
     return np.repeat(np.asarray(frames, np.float32), hold, axis=0)
 
 
-def track(task: PullTask, dampings: list[float], seed: int = 0) -> list[dict]:
-    """Success (q reached q_done at any step) and final progress per damping multiplier."""
+def track(task: PullTask, dampings: list[float], seed: int = 0, traces: bool = False):
+    """Success (q reached q_done at any step) and final progress per damping multiplier. With ``traces``,
+    also the per-step object q (T, n) and hand q (T, n, 51) of the rollout (for backend parity checks)."""
     targets = jnp.asarray(drag_targets(task))
     n = len(dampings)
     keys = jax.random.split(jax.random.PRNGKey(seed), n)
@@ -43,13 +44,14 @@ def track(task: PullTask, dampings: list[float], seed: int = 0) -> list[dict]:
             success = success | (live & (m["success"] > 0))
             progress = jnp.where(live, m["progress"], progress)
             finished = finished | state.done
-            return (state, finished, success, progress), m["q"]
+            return (state, finished, success, progress), (m["q"], state.obs.state[:, :51])
 
         init = (state, jnp.zeros(n, bool), jnp.zeros(n, bool), jnp.zeros(n, jnp.float32))
         (_, _, success, progress), qs = jax.lax.scan(body, init, targets)
         return success, progress, qs
 
-    success, progress, qs = run(keys, scales)
-    return [{"damping": float(d), "success": bool(s), "final_progress": float(p), "q_max": float(q)}
+    success, progress, (qs, hand) = run(keys, scales)
+    rows = [{"damping": float(d), "success": bool(s), "final_progress": float(p), "q_max": float(q)}
             for d, s, p, q in zip(dampings, np.asarray(success), np.asarray(progress), np.asarray(qs).max(0),
                                   strict=True)]
+    return (rows, {"q": np.asarray(qs), "hand_q": np.asarray(hand)}) if traces else rows

@@ -55,6 +55,7 @@ class State:
     done: jnp.ndarray  # the episode ended at this step (terminated or truncated); obs is already the new one's
     terminated: jnp.ndarray  # success, detachment failure or non-finite physics: no bootstrap
     truncated: jnp.ndarray  # time limit: bootstrap from the value
+    final_obs: Obs  # the observation the step reached, before any automatic reset (for value bootstrap)
     metrics: dict
     info: dict
 
@@ -180,7 +181,7 @@ class PullTask:
         metrics = {m: zero for m in METRICS}
         metrics["q"] = k.obj_q.astype(jnp.float32)
         return State(physics=ps, obs=obs, reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
-                     truncated=jnp.bool_(False), metrics=metrics, info=info)
+                     truncated=jnp.bool_(False), final_obs=obs, metrics=metrics, info=info)
 
     def _aux(self, info) -> jnp.ndarray:
         q, dmax = info["q_ring"], info["d_ring"].max()
@@ -239,7 +240,7 @@ class PullTask:
             "episode_length": step.astype(jnp.float32), "q": q,
         }
         new = State(physics=ps, obs=obs, reward=reward, done=done, terminated=terminated, truncated=truncated,
-                    metrics=metrics, info=new_info)
+                    final_obs=obs, metrics=metrics, info=new_info)
         # Automatic reset of a finished world (the returned reward/done/metrics belong to the finished step).
         key, sub, sub2 = jax.random.split(info["rng"], 3)
         damp, fric = self._sample_scales(sub)

@@ -1,0 +1,103 @@
+"""Actor-critic networks (paper Appendix A.3, Table 8; facts §6).
+
+Two branches: the state s_t through an MLP [512, 512, 256] (ELU); the history block H_t (16 tokens of 102)
+through a temporal encoder to a 128-d contact-history feature z_hist, LayerNorm'd. The fused features give
+the Gaussian mean (51) and the value. The auxiliary head (128 -> 64 -> 4) reads z_hist only.
+
+Temporal encoders: ``gla`` (PICA), ``flat`` (flattened history MLP), ``gru``, ``transformer`` (causal,
+1 block), or ``none`` (state-only PPO). The aux targets are not an input of any of them (``ActorCritic``
+only ever receives ``obs.state`` and ``obs.history``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import flax.linen as nn
+import jax.numpy as jnp
+
+from dragmesh2_jax.policies.gla import GatedLinearAttention
+
+ENCODERS = ("none", "flat", "gla", "gru", "transformer")
+_zeros = nn.initializers.zeros
+
+
+class MLP(nn.Module):
+    sizes: Sequence[int]
+
+    @nn.compact
+    def __call__(self, x):
+        for n in self.sizes:
+            x = nn.elu(nn.Dense(n, bias_init=_zeros)(x))
+        return x
+
+
+class TemporalEncoder(nn.Module):
+    """H (..., L, 102) -> z_hist (..., dim)."""
+
+    kind: str = "gla"
+    dim: int = 128
+    heads: int = 4
+
+    @nn.compact
+    def __call__(self, history):
+        if self.kind == "flat":
+            x = history.reshape(*history.shape[:-2], -1)
+            return nn.LayerNorm(name="hist_norm")(MLP((256, self.dim))(x))
+        x = nn.Dense(self.dim, bias_init=_zeros, name="token_proj")(history)
+        if self.kind == "gla":
+            x = GatedLinearAttention(hidden=self.dim, heads=self.heads)(x)
+        elif self.kind == "gru":
+            cell = nn.GRUCell(features=self.dim)
+            x = nn.RNN(cell)(x.reshape(-1, *x.shape[-2:])).reshape(x.shape)
+        elif self.kind == "transformer":
+            L = x.shape[-2]
+            x = x + self.param("pos", nn.initializers.normal(0.02), (L, self.dim))
+            mask = nn.make_causal_mask(jnp.ones(x.shape[:-1]))
+            h = nn.LayerNorm()(x)
+            x = x + nn.MultiHeadDotProductAttention(num_heads=self.heads)(h, h, mask=mask)
+            x = x + nn.Dense(self.dim, bias_init=_zeros)(MLP((2 * self.dim,))(nn.LayerNorm()(x)))
+        else:
+            raise ValueError(f"unknown temporal encoder {self.kind!r}")
+        return nn.LayerNorm(name="hist_norm")(x[..., -1, :])  # the last token's output
+
+
+class ActorCritic(nn.Module):
+    encoder: str = "gla"
+    state_sizes: Sequence[int] = (512, 512, 256)
+    hist_dim: int = 128
+    heads: int = 4
+    action_size: int = 51
+    log_std_init: float = -2.0
+    aux_size: int = 4
+
+    def setup(self):
+        self.state_mlp = MLP(self.state_sizes)
+        if self.encoder != "none":
+            self.temporal = TemporalEncoder(self.encoder, self.hist_dim, self.heads)
+        self.mu = nn.Dense(self.action_size, bias_init=_zeros)
+        self.value = nn.Dense(1, bias_init=_zeros)
+        self.log_std = self.param("log_std", nn.initializers.constant(self.log_std_init), (self.action_size,))
+        self.aux_head = MLP((64,))
+        self.aux_out = nn.Dense(self.aux_size, bias_init=_zeros)
+
+    def features(self, state, history):
+        z = self.state_mlp(state)
+        if self.encoder == "none":
+            return z, None
+        h = self.temporal(history)
+        return jnp.concatenate([z, h], axis=-1), h
+
+    def __call__(self, state, history):
+        """-> (action mean (51), log std (51), value (), z_hist or None)."""
+        fused, h = self.features(state, history)
+        return self.mu(fused), self.log_std, self.value(fused)[..., 0], h
+
+    def aux(self, z_hist):
+        """Auxiliary prediction of y_t from the contact-history feature alone."""
+        return self.aux_out(self.aux_head(z_hist))
+
+    def init_all(self, state, history):
+        """Initialise every parameter, the aux head included."""
+        _, _, _, h = self(state, history)
+        return self.aux(h if h is not None else jnp.zeros((*state.shape[:-1], self.hist_dim)))

@@ -1,0 +1,51 @@
+"""PPO configuration: paper Table 11 (and facts §7 for what the table leaves out) as defaults."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from dragmesh2_jax.errors import DragMeshError
+
+
+@dataclass(frozen=True)
+class PPOConfig:
+    num_envs: int = 64
+    rollout_len: int = 32
+    epochs: int = 150  # training epochs (one rollout + update each); the paper's budget
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    lr: float = 3e-4
+    lr_schedule: str = "fixed"  # "fixed" (paper Table 11) | "adaptive" (the reference's rl_games KL-adaptive)
+    kl_threshold: float = 0.008
+    clip_eps: float = 0.2
+    update_epochs: int = 5  # minibatch epochs per batch
+    num_minibatches: int = 1  # the reference's 2048-sample minibatch = the whole batch
+    value_coef: float = 1.0  # c_v (loss term 0.5 c_v (V - R)^2, clipped)
+    clip_value: bool = True
+    entropy_coef: float = 0.0
+    bounds_coef: float = 0.01  # c_b, actor bounds loss at |mu| > 1.1
+    aux_weight: float = 0.01  # w_aux after warm-up (Table 10)
+    aux_warmup: tuple[int, int] = (10, 40)  # w_aux = 0 before the first epoch, linear to aux_weight by the second
+    aux_channel_weights: tuple[float, float, float, float] = (1.0, 1.0, 0.5, 0.5)
+    max_grad_norm: float = 1.0
+    normalize_obs: bool = True  # running mean/std of state and history tokens (Welford)
+    normalize_advantage: bool = True
+    seed: int = 42
+
+    def __post_init__(self):
+        if self.num_envs < 1 or self.rollout_len < 1 or self.epochs < 1 or self.update_epochs < 1:
+            raise DragMeshError("num_envs, rollout_len, epochs and update_epochs must be >= 1")
+        if (self.num_envs * self.rollout_len) % self.num_minibatches:
+            raise DragMeshError(f"num_envs * rollout_len ({self.num_envs * self.rollout_len}) must divide into "
+                                f"{self.num_minibatches} minibatches")
+        if self.lr_schedule not in ("adaptive", "fixed"):
+            raise DragMeshError(f"lr_schedule must be 'adaptive' or 'fixed', got {self.lr_schedule!r}")
+        if not self.lr > 0:
+            raise DragMeshError(f"lr must be > 0, got {self.lr}")
+
+    def aux_weight_at(self, epoch):
+        """w_aux(epoch): 0 -> aux_weight, linear over ``aux_warmup`` (epochs counted from 0)."""
+        import jax.numpy as jnp
+
+        a, b = self.aux_warmup
+        return self.aux_weight * jnp.clip((epoch - a) / max(b - a, 1), 0.0, 1.0)

@@ -1,0 +1,31 @@
+"""Running mean / variance (Welford / parallel algorithm) for observation and aux-target normalisation."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+from flax import struct
+
+
+@struct.dataclass
+class RunningStats:
+    mean: jnp.ndarray
+    var: jnp.ndarray
+    count: jnp.ndarray
+
+    @classmethod
+    def create(cls, size: int) -> RunningStats:
+        return cls(jnp.zeros(size), jnp.ones(size), jnp.asarray(1e-4))
+
+    def update(self, x: jnp.ndarray) -> RunningStats:
+        """Merge a batch (..., size) into the statistics."""
+        x = x.reshape(-1, x.shape[-1])
+        n = x.shape[0]
+        bm, bv = x.mean(0), x.var(0)
+        tot = self.count + n
+        delta = bm - self.mean
+        mean = self.mean + delta * n / tot
+        m2 = self.var * self.count + bv * n + delta**2 * self.count * n / tot
+        return RunningStats(mean, m2 / tot, tot)
+
+    def normalize(self, x: jnp.ndarray, clip: float = 5.0) -> jnp.ndarray:
+        return jnp.clip((x - self.mean) / jnp.sqrt(self.var + 1e-5), -clip, clip)

@@ -1,0 +1,157 @@
+"""The pulling task: API shapes, damping, aux targets, termination vs truncation, robustness, bad config."""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.env import AUX_SIZE, STATE_SIZE, TOKEN_SIZE, PullTask, make_batched
+
+
+def _task(base: PullTask, **changes) -> PullTask:
+    return PullTask(base.scene, base.traj, dataclasses.replace(base.config, **changes))
+
+
+def _rollout(task, actions, scales, seed=0):
+    reset, step = make_batched(task)
+    n = len(scales)
+    state = jax.jit(reset)(jax.random.split(jax.random.PRNGKey(seed), n), jnp.asarray(scales, jnp.float32))
+    first = state
+
+    def body(s, a):
+        s = step(s, a)
+        return s, (s.metrics, s.obs, s.done, s.terminated, s.truncated)
+
+    _, out = jax.jit(lambda s, a: jax.lax.scan(body, s, a))(state, actions)
+    return first, out
+
+
+def test_reset_and_step_shapes_and_dtypes(drawer_task):
+    reset, step = make_batched(drawer_task)
+    s = jax.jit(reset)(jax.random.split(jax.random.PRNGKey(0), 3))
+    assert s.obs.state.shape == (3, STATE_SIZE) and s.obs.history.shape == (3, 16, TOKEN_SIZE)
+    assert s.obs.aux.shape == (3, AUX_SIZE)
+    s = jax.jit(step)(s, jnp.zeros((3, 51)))
+    assert s.obs.state.dtype == jnp.float32 and s.reward.shape == (3,) and s.done.dtype == jnp.bool_
+    assert {"success", "progress", "detach", "action_abs_max", "action_l2", "palm_dist"} <= set(s.metrics)
+    # training damping is sampled per world from [1, 2]
+    sc = np.asarray(s.info["damping_scale"])
+    assert np.all((sc >= 1) & (sc <= 2)) and len(set(sc.tolist())) == 3
+    # the newest history token is [e_t, a_{t-1}] with the action just applied
+    np.testing.assert_allclose(s.obs.history[:, -1, 51:], 0.0)
+
+
+def test_expert_grasp_state_at_reset(drawer_task):
+    s = drawer_task.reset(jax.random.PRNGKey(0))
+    q0 = drawer_task.traj.frames[drawer_task.traj.drag_start].hand_q
+    np.testing.assert_allclose(s.obs.state[:51], q0, atol=0.02)  # 4 settle substeps from rest
+    assert float(s.obs.state[114]) <= drawer_task.config.d_detach  # armed: the palm starts at the handle
+    assert bool(s.info["armed"])
+    np.testing.assert_allclose(s.obs.history[:-1], 0.0)
+
+
+def _pull_actions(task, steps, n):
+    """Pull the wrist outwards along the handle normal at full speed."""
+    a = np.zeros((steps, n, 51), np.float32)
+    a[:, :, :3] = task.scene.handle.normal
+    return jnp.asarray(a)
+
+
+def test_higher_damping_means_less_motion(drawer_task):
+    task = _task(drawer_task, episode_length=1000)
+    _, (m, *_) = _rollout(task, _pull_actions(task, 20, 2), [1.0, 8.0])
+    q = np.asarray(m["q"])
+    assert q[-1, 0] > q[-1, 1] + 1e-3 > 1e-3
+
+
+def test_aux_targets_match_numpy_reference(drawer_task):
+    task = _task(drawer_task, episode_length=1000)
+    rng = np.random.default_rng(0)
+    actions = jnp.asarray(rng.uniform(-0.3, 0.3, (12, 1, 51)).astype(np.float32))
+    first, (m, obs, *_) = _rollout(task, actions, [1.0])
+    K = task.config.aux_window
+    d = np.concatenate([[float(first.obs.state[0, 114])], np.asarray(m["palm_dist"])[:, 0]])
+    q = np.concatenate([[float(first.metrics["q"][0])], np.asarray(m["q"])[:, 0]])
+    e0 = np.linalg.norm(np.asarray(first.obs.history[0, -1, :51]))
+    e = np.concatenate([[e0], np.linalg.norm(np.asarray(obs.history)[:, 0, -1, :51], axis=-1)])
+    aux = np.asarray(obs.aux)[:, 0]
+    for t in range(1, len(d)):
+        w = slice(max(0, t - K), t + 1)  # the window is seeded with the reset value
+        ref = [q[t] - q[max(0, t - K)], d[w].max(), float(d[w].max() > task.config.d_detach), e[w].max()]
+        np.testing.assert_allclose(aux[t - 1], ref, rtol=1e-5, atol=1e-6)
+    # aux targets are not part of the state observation
+    assert obs.state.shape[-1] == STATE_SIZE
+
+
+def test_time_limit_is_a_truncation_not_a_termination(drawer_task):
+    task = _task(drawer_task, episode_length=5)
+    _, (m, obs, done, term, trunc) = _rollout(task, jnp.zeros((6, 1, 51)), [1.0])
+    assert np.asarray(done)[:, 0].tolist() == [False] * 4 + [True, False]
+    assert np.asarray(trunc)[4, 0] and not np.asarray(term)[4, 0]
+    assert float(m["episode_length"][4, 0]) == 5
+
+
+def test_detachment_terminates_after_contact(drawer_task):
+    task = _task(drawer_task, episode_length=1000)
+    a = -_pull_actions(task, 40, 1)  # push the wrist back into... away from the handle: reverse the normal
+    a = a.at[:, :, :3].set(jnp.asarray([0.0, 0.0, 1.0]))  # lift straight up, off the handle
+    _, (m, obs, done, term, trunc) = _rollout(task, a, [1.0])
+    det = np.asarray(m["detach"])[:, 0]
+    assert det.max() == 1.0
+    k = int(np.argmax(det))
+    assert np.asarray(term)[k, 0] and not np.asarray(trunc)[k, 0]
+    assert float(m["reward"][k, 0]) < -40  # the one-shot detachment penalty
+    assert float(m["palm_dist"][k, 0]) > task.config.d_detach
+
+
+def test_random_actions_stay_finite_from_x1_to_x8(drawer_task):
+    task = _task(drawer_task)
+    rng = np.random.default_rng(1)
+    scales = [1.0, 2.0, 4.0, 8.0]
+    actions = jnp.asarray(rng.uniform(-1, 1, (300, len(scales), 51)).astype(np.float32))
+    _, (m, obs, *_) = _rollout(task, actions, scales)
+    assert np.isfinite(np.asarray(obs.state)).all() and np.isfinite(np.asarray(m["reward"])).all()
+    assert np.asarray(m["nonfinite"]).sum() == 0
+
+
+def test_non_finite_world_is_reset_and_counted_without_poisoning_others(drawer_task):
+    task = _task(drawer_task, episode_length=1000)
+    real = task.backend
+
+    class Poison:
+        """Wraps the backend: world whose damping is 8x goes NaN."""
+
+        name, scene, substeps = real.name, real.scene, real.substeps
+        reset_state, kinematics = real.reset_state, real.kinematics
+
+        def step(self, ps, ctrl, damping, friction):
+            out = real.step(ps, ctrl, damping, friction)
+            bad = damping > 50
+            return jax.tree.map(lambda x: jnp.where(bad, jnp.nan, x), out)
+
+    task.backend = Poison()
+    _, (m, obs, done, term, _) = _rollout(task, jnp.zeros((3, 2, 51)), [1.0, 8.0])
+    assert np.asarray(m["nonfinite"])[:, 1].tolist() == [1.0, 1.0, 1.0]
+    assert np.asarray(m["nonfinite"])[:, 0].sum() == 0 and np.isfinite(np.asarray(obs.state)).all()
+    assert np.asarray(term)[:, 1].all() and float(np.abs(np.asarray(m["reward"])[:, 1]).max()) == 0.0
+
+
+@pytest.mark.parametrize("change, fragment", [
+    ({"alpha": 0.0}, "alpha"), ({"backend": "cuda"}, "unknown backend"), ({"impl": "torch"}, "impl"),
+    ({"damping_range": (2.0, 1.0)}, "damping_range"),
+])
+def test_bad_config_is_rejected_before_compiling(change, fragment):
+    with pytest.raises(DragMeshError, match=fragment):
+        TaskConfig(**change)
+
+
+def test_trajectory_of_another_object_is_rejected(drawer_task, shared_dir):
+    from dragmesh2_jax.trajectory.schema import read_trajectory
+
+    other = read_trajectory(shared_dir / "reference" / "trajectories" / "45661.json")
+    with pytest.raises(DragMeshError, match="object joints|moves joint"):
+        PullTask(drawer_task.scene, other, drawer_task.config)
