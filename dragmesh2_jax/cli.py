@@ -273,7 +273,7 @@ def cmd_demo(args) -> int:
     out = Path(args.out)
     folder = str(args.object or default_object())
     print(f"dragmesh2 demo: trajectory -> PICA ({epochs} epochs x 64 envs x 32 steps) -> evaluation at damping "
-          f"x1/x2/x4; {'GPU: full preset' if gpu else 'CPU: small preset, about 5-10 minutes on 2 cores'}",
+          f"x1/x2/x4; {'GPU: full preset' if gpu else 'CPU: small preset, about 3-5 minutes on 2 cores'}",
           file=sys.stderr)
     t0 = time.time()
     trainer = make_trainer(folder, args.trajectory, "pica", args.backend, "jax", epochs=epochs, seed=args.seed)
@@ -284,6 +284,7 @@ def cmd_demo(args) -> int:
     result = evaluate(trainer, ts, [1.0, 2.0, 4.0], ["det", "stoch"], episodes=20, seed=args.seed)
     atomic_write_json(out / "eval_final.json", result)
     _plot_success(result, out / "success_vs_damping.png")
+    _grasp_picture(trainer.task, out / "grasp.png")
     q = traj.header.get("quality", {})
     report = [
         f"# DragMesh-2 demo: PICA on {trainer.task.scene.obj.object_id} ({trainer.task.scene.obj.category})", "",
@@ -296,12 +297,26 @@ def cmd_demo(args) -> int:
         f"{rows[-1]['seconds']:.0f} s",
         f"- wall time (all stages): {time.time() - t0:.0f} s on {jax.default_backend()}", "",
         "## Evaluation (20 episodes per cell)", "", markdown_table(result), "",
-        "![success vs damping](success_vs_damping.png)", "",
+        "![success vs damping](success_vs_damping.png)", "", "The expert grasp state every episode starts from:",
+        "", "![expert grasp](grasp.png)", "",
     ]
     atomic_write_text(out / "report.md", "\n".join(report))
     print("\n".join(report))
     print(f"report: {out / 'report.md'}", file=sys.stderr)
     return 0
+
+
+def _grasp_picture(task, path: Path) -> str:
+    import mujoco
+
+    from dragmesh2_jax.render import render_png
+
+    scene, traj = task.scene, task.traj
+    d = scene.initial_data()
+    d.qpos[scene.ids.hand_qpos] = traj.frames[traj.drag_start].hand_q
+    d.qpos[scene.ids.target_qpos] = traj.frames[traj.drag_start].joint_positions[traj.target_index]
+    mujoco.mj_forward(scene.model, d)
+    return render_png(scene.model, d, path, target=scene.handle.centre)
 
 
 def _plot_success(result: dict, path: Path) -> None:

@@ -22,9 +22,16 @@ def test_inspect_text_and_picture(gapartnet_dir, tmp_path, capsys):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_demo_writes_summary_and_picture(tmp_path):
-    assert main(["demo", "--out", str(tmp_path)]) == 0
-    res = json.loads((tmp_path / "demo.json").read_text())
-    assert res["rollout"]["finite"] and res["scene"]["nu"] == 51
-    assert res["rollout"]["palm_handle_distance_m"] < 0.12  # the hand ends at the handle
-    assert (tmp_path / "scene.png").stat().st_size > 1000
+def test_demo_trains_evaluates_and_reports(tmp_path):
+    """The main job end to end, with a 2-epoch preset (the real one is 60 epochs on a CPU)."""
+    assert main(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet"]) == 0
+    res = json.loads((tmp_path / "eval_final.json").read_text())
+    assert [(c["damping"], c["mode"]) for c in res["cells"]] == [
+        (d, m) for d in (1.0, 2.0, 4.0) for m in ("det", "stoch")]
+    assert all(c["episodes"] == 20 for c in res["cells"])
+    report = (tmp_path / "report.md").read_text()
+    assert "| x1 | det |" in report and "success_vs_damping.png" in report
+    for png in ("success_vs_damping.png", "grasp.png"):
+        assert (tmp_path / png).read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "checkpoints" / "final.npz").is_file()
+    assert main(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet"]) == 2  # never overwrites a run
