@@ -225,17 +225,28 @@ def _run_meta(run_dir: Path) -> dict:
 
 
 def load_run(checkpoint: str, backend: str = "auto", impl: str = "jax"):
-    """(trainer, train state) from a checkpoint inside a run folder."""
+    """(trainer, train state, run folder) from a checkpoint inside a run folder. On a backend other than the
+    one the run trained on, the policy (parameters and normalisers) is moved into a fresh state of that
+    backend: a policy trained on one backend evaluates on the other."""
     from dragmesh2_jax.ppo.runner import load_checkpoint
+    from dragmesh2_jax.task.config import TaskConfig
 
     ck = Path(checkpoint)
     if ck.is_dir():
         ck = ck / "checkpoints" / "final.npz"
     run_dir = ck.parent.parent
     meta = _run_meta(run_dir)
-    trainer = make_trainer(meta["object"], str(run_dir / meta["trajectory"]), meta["method"], backend, impl,
-                           **_ppo_from_meta(meta))
-    return trainer, load_checkpoint(trainer.init(), ck), run_dir
+    args = (meta["object"], str(run_dir / meta["trajectory"]), meta["method"])
+    trainer = make_trainer(*args, backend, impl, **_ppo_from_meta(meta))
+    trained_on = meta.get("backend", trainer.task.backend.name)
+    if trained_on == trainer.task.backend.name:
+        return trainer, load_checkpoint(trainer.init(), ck), run_dir
+    TaskConfig(backend=trained_on)  # validates the recorded name
+    source = make_trainer(*args, trained_on, impl, **_ppo_from_meta(meta))
+    src = load_checkpoint(source.init(), ck)
+    ts = trainer.init().replace(params=src.params, state_stats=src.state_stats, token_stats=src.token_stats,
+                                aux_stats=src.aux_stats, value_stats=src.value_stats, epoch=src.epoch)
+    return trainer, ts, run_dir
 
 
 def cmd_evaluate(args) -> int:

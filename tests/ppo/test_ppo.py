@@ -119,3 +119,16 @@ def test_bad_ppo_config():
         PPOConfig(num_envs=0)
     with pytest.raises(DragMeshError):
         PPOConfig(num_envs=3, rollout_len=3, num_minibatches=2)
+
+
+def test_policy_trained_on_one_backend_loads_on_the_other(small_trainer, tmp_path):
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.cli import load_run
+    from dragmesh2_jax.ppo.runner import train
+
+    ts, _ = train(small_trainer, tmp_path / "run", str(default_object()), progress=False)
+    trainer, loaded, _ = load_run(str(tmp_path / "run" / "checkpoints" / "final.npz"), backend="mjx")
+    assert trainer.task.backend.name == "mjx"
+    for x, y in zip(jax.tree.leaves(ts.params), jax.tree.leaves(loaded.params), strict=True):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    np.testing.assert_array_equal(np.asarray(ts.state_stats.mean), np.asarray(loaded.state_stats.mean))
