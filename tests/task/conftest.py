@@ -11,24 +11,23 @@ def drawer_task():
 
 
 @pytest.fixture(scope="session")
-def trajectory_45261(gapartnet_dir, tmp_path_factory):
+def tracking_rollouts(gapartnet_dir, tmp_path_factory):
+    """Tracking rollouts of a real object at x1/x2/x4 on both backends, computed once per object per session
+    (one MJX compile each): ``tracking_rollouts(oid) -> {backend: (rows, traces)}``."""
     from dragmesh2_jax.assets.gapartnet import load_gapartnet
+    from dragmesh2_jax.baselines.tracking import track
+    from dragmesh2_jax.cli import load_task
     from dragmesh2_jax.trajectory.generator import generate
     from dragmesh2_jax.trajectory.schema import write_trajectory
 
-    path = tmp_path_factory.mktemp("traj") / "45261.json"
-    write_trajectory(generate(load_gapartnet(gapartnet_dir / "45261")), path)
-    return path
+    cache = {}
 
+    def get(oid):
+        if oid not in cache:
+            path = tmp_path_factory.mktemp("traj") / f"{oid}.json"
+            write_trajectory(generate(load_gapartnet(gapartnet_dir / oid)), path)
+            cache[oid] = {b: track(load_task(str(gapartnet_dir / oid), str(path), backend=b), [1.0, 2.0, 4.0],
+                                   traces=True) for b in ("mujoco", "mjx")}
+        return cache[oid]
 
-@pytest.fixture(scope="session")
-def tracking_45261(gapartnet_dir, trajectory_45261):
-    """Tracking rollouts of 45261 at x1/x2/x4 on both backends (one MJX compile for the whole session)."""
-    from dragmesh2_jax.baselines.tracking import track
-    from dragmesh2_jax.cli import load_task
-
-    out = {}
-    for backend in ("mujoco", "mjx"):
-        task = load_task(str(gapartnet_dir / "45261"), str(trajectory_45261), backend=backend)
-        out[backend] = track(task, [1.0, 2.0, 4.0], traces=True)
-    return out
+    return get
