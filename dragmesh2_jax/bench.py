@@ -38,11 +38,11 @@ def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
         return s.obs.state
 
     t0 = time.perf_counter()
-    run.lower(keys, actions).compile()
+    compiled = run.lower(keys, actions).compile()
     compile_s = time.perf_counter() - t0
-    jax.block_until_ready(run(keys, actions))  # warm
+    jax.block_until_ready(compiled(keys, actions))  # warm
     t0 = time.perf_counter()
-    jax.block_until_ready(run(keys, actions))
+    jax.block_until_ready(compiled(keys, actions))
     dt = time.perf_counter() - t0
     ctrl = num_envs * steps / dt
     return {"backend": task.backend.name, "num_envs": num_envs, "steps": steps, "compile_s": round(compile_s, 3),

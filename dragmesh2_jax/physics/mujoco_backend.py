@@ -74,8 +74,7 @@ class _HostStepper:
                         sensordata=sensors)
         last = state[:, -1]
         out = (last[:, self.qpos_sl], last[:, self.qvel_sl], sensors[:, -1])
-        return tuple(np.asarray(o.reshape(*batch, -1), dtype=np.float32 if o.dtype == np.float32 else o.dtype)
-                     for o in out)
+        return tuple(o.reshape(*batch, -1) for o in out)
 
 
 class MujocoBackend:

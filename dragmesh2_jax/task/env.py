@@ -23,7 +23,6 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from flax import struct
 
 from dragmesh2_jax.errors import DragMeshError
@@ -257,6 +256,3 @@ def make_batched(task: PullTask):
     """(reset, step) over a leading world axis: ``reset(keys[N]) -> State[N]``, ``step(State[N], a[N, 51])``."""
     return jax.vmap(task.reset), jax.vmap(task.step)
 
-
-def as_numpy_metrics(metrics: dict) -> dict[str, np.ndarray]:
-    return {k: np.asarray(v) for k, v in metrics.items()}
