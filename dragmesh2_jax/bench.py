@@ -27,6 +27,10 @@ def machine() -> dict:
 
 def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     """Time ``steps`` control steps of ``num_envs`` worlds with random actions (compile timed separately)."""
+    if task.backend.name == "mjx":
+        from dragmesh2_jax.physics.mjx_backend import warn_cpu_batch
+
+        warn_cpu_batch(num_envs)
     reset, step = make_batched(task)
     keys = jax.random.split(jax.random.PRNGKey(seed), num_envs)
     actions = jnp.asarray(np.random.default_rng(seed).uniform(-1, 1, (steps, num_envs, 51)).astype(np.float32))

@@ -12,6 +12,16 @@ from dragmesh2_jax.physics.base import Kinematics, settled_reset
 from dragmesh2_jax.scene import Scene
 
 
+def warn_cpu_batch(num_worlds: int) -> None:
+    """MJX on a CPU deadlocked inside XLA for >= 16 vmapped worlds on the development machine (jax 0.10.2, 2 cores;
+    RESULTS.md §1). Say so before it happens; the C-engine backend is the right one on a CPU anyway."""
+    import sys
+
+    if num_worlds >= 16 and jax.default_backend() == "cpu":
+        print(f"warning: MJX with {num_worlds} worlds on a CPU has hung inside XLA on some machines (RESULTS.md); "
+              "use --backend mujoco on a CPU", file=sys.stderr)
+
+
 class MjxBackend:
     name = "mjx"
 

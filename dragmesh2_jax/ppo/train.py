@@ -80,6 +80,10 @@ class Trainer:
         self.net = ActorCritic(encoder=method.encoder, action_size=task.action_size)
         self.use_aux = method.physical_signals and method.encoder != "none"
         self.reset, self.step = make_batched(task)
+        if getattr(getattr(task, "backend", None), "name", None) == "mjx":
+            from dragmesh2_jax.physics.mjx_backend import warn_cpu_batch
+
+            warn_cpu_batch(config.num_envs)
         self.tx = optax.chain(optax.clip_by_global_norm(config.max_grad_norm),
                               optax.inject_hyperparams(optax.adam)(learning_rate=config.lr))
         self.epoch = jax.jit(self._epoch)
