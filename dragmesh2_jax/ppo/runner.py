@@ -51,7 +51,7 @@ def load_checkpoint(template: TrainState, path: Path) -> TrainState:
         a = z[f"arr_{i}"]
         if a.shape != np.shape(ref):
             raise DragMeshError(f"{path}: array {i} has shape {a.shape}, expected {np.shape(ref)}")
-        new.append(jax.numpy.asarray(a, dtype=np.asarray(ref).dtype) if a.dtype != object else a)
+        new.append(jax.numpy.asarray(a, dtype=np.asarray(ref).dtype))
     return jax.tree.unflatten(treedef, new)
 
 
