@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.runs import load_run, load_task, make_trainer, parse_floats, ppo_from_meta, run_meta
 
 
 def _scene_config(args):
@@ -113,36 +114,10 @@ def cmd_dataset(args) -> int:
     return 0
 
 
-def _floats_arg(text: str, what: str) -> list[float]:
-    try:
-        vals = [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise DragMeshError(f"{what}: expected comma-separated numbers, got {text!r}") from None
-    if not vals:
-        raise DragMeshError(f"{what}: no values given")
-    return vals
-
-
-def load_task(object_dir: str, trajectory: str | None, backend: str = "auto", impl: str = "jax", **overrides):
-    """Object + trajectory (generated when not given) -> PullTask."""
-    from dragmesh2_jax.assets.gapartnet import load_gapartnet
-    from dragmesh2_jax.scene import build_scene
-    from dragmesh2_jax.task.config import TaskConfig
-    from dragmesh2_jax.task.env import PullTask
-    from dragmesh2_jax.trajectory.generator import generate
-    from dragmesh2_jax.trajectory.schema import read_trajectory
-
-    config = TaskConfig(backend=backend, impl=impl, **overrides)  # validated before anything compiles
-    obj = load_gapartnet(object_dir)
-    scene = build_scene(obj)
-    traj = read_trajectory(trajectory) if trajectory else generate(obj, scene=scene)
-    return PullTask(scene, traj, config)
-
-
 def cmd_track(args) -> int:
     from dragmesh2_jax.baselines.tracking import track
 
-    dampings = _floats_arg(args.damping, "--damping")
+    dampings = parse_floats(args.damping, "--damping", minimum=0.0)
     task = load_task(args.object, args.trajectory, args.backend, args.impl)
     rows = track(task, dampings, seed=args.seed)
     if args.json:
@@ -163,7 +138,7 @@ def cmd_bench(args) -> int:
     rows = []
     for backend in args.backend.split(","):
         task = load_task(args.object or str(default_object()), args.trajectory, backend.strip(), args.impl)
-        for n in _floats_arg(args.num_envs, "--num-envs"):
+        for n in parse_floats(args.num_envs, "--num-envs"):
             steps = args.steps if backend.strip() != "mjx" or args.mjx_steps is None else args.mjx_steps
             rows.append(bench_env(task, int(n), steps))
             r = rows[-1]
@@ -180,31 +155,23 @@ def _add_backend_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--impl", default="jax", help="MJX implementation: jax | warp")
 
 
-def make_trainer(object_dir: str, trajectory: str | None, method_name: str, backend: str, impl: str, **ppo):
-    from dragmesh2_jax.policies.methods import get_method, task_overrides
-    from dragmesh2_jax.ppo.config import PPOConfig
-    from dragmesh2_jax.ppo.train import Trainer
-
-    method = get_method(method_name)
-    config = PPOConfig(**{k: v for k, v in ppo.items() if v is not None})
-    task = load_task(object_dir, trajectory, backend, impl, **task_overrides(method))
-    return Trainer(task, method, config)
-
-
 def cmd_train(args) -> int:
-    from dragmesh2_jax.ppo.runner import train
+    from dragmesh2_jax.ppo.runner import RobustSelection, train
 
+    if args.robust_every < 0:
+        raise DragMeshError("--robust-every must be >= 0")
     if args.resume:
-        meta = _run_meta(Path(args.out))
-        ppo = {**_ppo_from_meta(meta), **({"epochs": args.epochs} if args.epochs else {})}
+        meta = run_meta(Path(args.out))
+        ppo = {**ppo_from_meta(meta), **({"epochs": args.epochs} if args.epochs else {})}
         trainer = make_trainer(meta["object"], str(Path(args.out) / meta["trajectory"]), meta["method"],
-                               args.backend, args.impl, **ppo)
+                               args.backend, args.impl, finetune=meta.get("finetune"), **ppo)
     else:
         trainer = make_trainer(args.object, args.trajectory, args.method, args.backend, args.impl,
                                epochs=args.epochs, num_envs=args.num_envs, seed=args.seed,
                                lr_schedule=args.lr_schedule)
     _, rows = train(trainer, args.out, args.object or meta["object"], resume=args.resume,
-                    save_every=args.save_every, progress=not args.quiet)
+                    save_every=args.save_every, progress=not args.quiet,
+                    selection=RobustSelection(every=args.robust_every))
     last = rows[-1] if rows else {}
     print(f"{args.out}: {trainer.method.name} on {trainer.task.scene.obj.object_id} ({trainer.task.backend.name}), "
           f"{last.get('epoch', 0)} epochs, training success {last.get('success', 0):.2f}, "
@@ -212,46 +179,25 @@ def cmd_train(args) -> int:
     return 0
 
 
-def _ppo_from_meta(meta: dict) -> dict:
-    return {**meta["ppo"], "aux_warmup": tuple(meta["ppo"]["aux_warmup"]),
-            "aux_channel_weights": tuple(meta["ppo"]["aux_channel_weights"])}
+def cmd_finetune(args) -> int:
+    from dragmesh2_jax.ppo.runner import RobustSelection, train
+    from dragmesh2_jax.runs import make_finetune
 
-
-def _run_meta(run_dir: Path) -> dict:
-    path = run_dir / "run.json"
-    if not path.is_file():
-        raise DragMeshError(f"{run_dir}: not a training run folder (no run.json)")
-    return json.loads(path.read_text())
-
-
-def load_run(checkpoint: str, backend: str = "auto", impl: str = "jax"):
-    """(trainer, train state, run folder) from a checkpoint inside a run folder. On a backend other than the
-    one the run trained on, the policy (parameters and normalisers) is moved into a fresh state of that
-    backend: a policy trained on one backend evaluates on the other."""
-    from dragmesh2_jax.ppo.runner import load_checkpoint
-    from dragmesh2_jax.task.config import TaskConfig
-
-    ck = Path(checkpoint)
-    if ck.is_dir():
-        ck = ck / "checkpoints" / "final.npz"
-    run_dir = ck.parent.parent
-    meta = _run_meta(run_dir)
-    args = (meta["object"], str(run_dir / meta["trajectory"]), meta["method"])
-    trainer = make_trainer(*args, backend, impl, **_ppo_from_meta(meta))
-    trained_on = meta.get("backend", trainer.task.backend.name)
-    if trained_on == trainer.task.backend.name:
-        return trainer, load_checkpoint(trainer.init(), ck), run_dir
-    TaskConfig(backend=trained_on)  # validates the recorded name
-    source = make_trainer(*args, trained_on, impl, **_ppo_from_meta(meta))
-    src = load_checkpoint(source.init(), ck)
-    ts = trainer.init().replace(params=src.params, state_stats=src.state_stats, token_stats=src.token_stats,
-                                aux_stats=src.aux_stats, value_stats=src.value_stats, epoch=src.epoch)
-    return trainer, ts, run_dir
+    trainer, start, parent = make_finetune(args.checkpoint, args.recipe, args.backend, args.impl, args.epochs)
+    meta = {"finetune": args.recipe, "parent": str(parent.resolve())}
+    object_dir = run_meta(parent.parent.parent)["object"]
+    _, rows = train(trainer, args.out, object_dir, save_every=args.save_every, progress=not args.quiet,
+                    selection=RobustSelection(every=args.robust_every), start=start, meta=meta)
+    last = rows[-1] if rows else {}
+    print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, training success "
+          f"{last.get('success', 0):.2f}, clip099 {last.get('clip099', 0):.2f}, {last.get('seconds', 0):.0f} s")
+    return 0
 
 
 def cmd_evaluate(args) -> int:
     from dragmesh2_jax.evaluation.evaluate import MODES, evaluate, markdown_table
     from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+    from dragmesh2_jax.runs import eval_task
 
     modes = [m.strip() for m in args.mode.split(",") if m.strip()]
     bad = [m for m in modes if m not in MODES]
@@ -259,11 +205,12 @@ def cmd_evaluate(args) -> int:
         raise DragMeshError(f"--mode: unknown mode(s) {bad} (choose from det, stoch)")
     if args.episodes < 1:
         raise DragMeshError("--episodes must be >= 1")
-    dampings = _floats_arg(args.damping, "--damping")
-    trainer, ts, run_dir = load_run(args.checkpoint, args.backend, args.impl)
-    result = evaluate(trainer, ts, dampings, modes, args.episodes, seed=args.seed)
-    result["checkpoint"] = str(args.checkpoint)
-    stem = Path(args.checkpoint).stem if Path(args.checkpoint).suffix else "final"
+    dampings = parse_floats(args.damping, "--damping", minimum=0.0)
+    trainer, ts, run_dir, ck = load_run(args.checkpoint, args.backend, args.impl)
+    task = eval_task(trainer.task, exact_reset=args.exact_reset)
+    result = evaluate(trainer, ts, dampings, modes, args.episodes, seed=args.seed, task=task)
+    result["checkpoint"] = str(ck)
+    stem = ck.stem + ("_exact" if args.exact_reset else "")
     atomic_write_json(run_dir / f"eval_{stem}.json", result)
     atomic_write_text(run_dir / f"eval_{stem}.md", markdown_table(result) + "\n")
     print(json.dumps(result, indent=1) if args.json else markdown_table(result))
@@ -277,7 +224,8 @@ def cmd_demo(args) -> int:
     from dragmesh2_jax.assets.procedural import default_object
     from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
     from dragmesh2_jax.io import atomic_write_json, atomic_write_text
-    from dragmesh2_jax.ppo.runner import train
+    from dragmesh2_jax.ppo.runner import load_checkpoint, train
+    from dragmesh2_jax.runs import eval_task, resolve_checkpoint
 
     gpu = jax.default_backend() != "cpu"
     epochs = args.epochs or (150 if gpu else 60)
@@ -292,8 +240,11 @@ def cmd_demo(args) -> int:
     if (out / "log.jsonl").exists():
         raise DragMeshError(f"{out}: already holds a demo run (choose another --out)")
     ts, rows = train(trainer, out, folder, progress=not args.quiet, save_every=max(epochs // 3, 1))
-    result = evaluate(trainer, ts, [1.0, 2.0, 4.0], ["det", "stoch"], episodes=20, seed=args.seed)
-    atomic_write_json(out / "eval_final.json", result)
+    ck = resolve_checkpoint(out)
+    result = evaluate(trainer, load_checkpoint(ts, ck), [1.0, 2.0, 4.0], ["det", "stoch"], episodes=20,
+                      seed=args.seed, task=eval_task(trainer.task))
+    result["checkpoint"] = str(ck)
+    atomic_write_json(out / f"eval_{ck.stem}.json", result)
     _plot_success(result, out / "success_vs_damping.png")
     _grasp_picture(trainer.task, out / "grasp.png")
     q = traj.header.get("quality", {})
@@ -307,7 +258,8 @@ def cmd_demo(args) -> int:
         f"{trainer.task.backend.name} backend; final training success {rows[-1]['success']:.2f}, "
         f"{rows[-1]['seconds']:.0f} s",
         f"- wall time (all stages): {time.time() - t0:.0f} s on {jax.default_backend()}", "",
-        "## Evaluation (20 episodes per cell)", "", markdown_table(result), "",
+        f"## Evaluation of `{ck.name}` (20 episodes per cell, each from a perturbed expert grasp; 95% Wilson "
+        "intervals)", "", markdown_table(result), "",
         "![success vs damping](success_vs_damping.png)", "", "The expert grasp state every episode starts from:",
         "", "![expert grasp](grasp.png)", "",
     ]
@@ -358,6 +310,8 @@ def _plot_success(result: dict, path: Path) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from dragmesh2_jax.ppo.runner import RobustSelection
+
     p = argparse.ArgumentParser(prog="dragmesh2", description="DragMesh-2 in JAX/MuJoCo-MJX")
     sub = p.add_subparsers(dest="cmd", required=True)
 
@@ -417,7 +371,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     ptr = sub.add_parser("train", help="train a policy with PPO")
     ptr.add_argument("--method", default="pica", help="pica | state_only | flat_history | gru | transformer | "
-                                                       "gla_only | pica_flat")
+                                                       "gla_only | pica_flat | pica_force | pica_priv | pica_d14 | "
+                                                       "pica_load")
     ptr.add_argument("--object", help="object folder")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
     ptr.add_argument("--out", required=True, help="run folder")
@@ -427,16 +382,33 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"])
     ptr.add_argument("--save-every", type=int, default=10)
     ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
+    ptr.add_argument("--robust-every", type=int, default=RobustSelection.every,
+                     help="epochs between robustness evaluations that select best_robust (0: off)")
     ptr.add_argument("--quiet", action="store_true")
     _add_backend_args(ptr)
     ptr.set_defaults(func=cmd_train)
 
+    pft = sub.add_parser("finetune", help="continue a trained run with a diagnostic preset (ARAM, Reconfig, ...)")
+    pft.add_argument("--checkpoint", required=True, help="a run's checkpoint, or the run folder (best_robust)")
+    pft.add_argument("--recipe", required=True, help="continued | aram | reconfig | both | both_jointaware | "
+                                                      "damp_1_4 | damp_1_2.5 | damp_2_4")
+    pft.add_argument("--out", required=True, help="run folder of the fine-tune")
+    pft.add_argument("--epochs", type=int, help="epochs to add (default: the preset's, 50)")
+    pft.add_argument("--save-every", type=int, default=10)
+    pft.add_argument("--robust-every", type=int, default=RobustSelection.every)
+    pft.add_argument("--quiet", action="store_true")
+    _add_backend_args(pft)
+    pft.set_defaults(func=cmd_finetune)
+
     pev = sub.add_parser("evaluate", help="evaluate a checkpoint: damping x mode cells, robustness summary")
-    pev.add_argument("--checkpoint", required=True, help="checkpoints/*.npz of a run (or the run folder)")
+    pev.add_argument("--checkpoint", required=True,
+                     help="checkpoints/*.npz of a run, or the run folder (its best_robust checkpoint, else final)")
     pev.add_argument("--damping", default="1,2,4")
     pev.add_argument("--mode", default="det,stoch")
     pev.add_argument("--episodes", type=int, default=20)
     pev.add_argument("--seed", type=int, default=42)
+    pev.add_argument("--exact-reset", action="store_true",
+                     help="the paper's noise-free start (default: perturbed expert grasps, so cells are rates)")
     pev.add_argument("--json", action="store_true")
     _add_backend_args(pev)
     pev.set_defaults(func=cmd_evaluate)

@@ -29,8 +29,13 @@ from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, link_pie
 from dragmesh2_jax.assets.gapartnet import GAPartNetObject, HandleFrame
 from dragmesh2_jax.errors import DragMeshError
 
-#: Sensors (12 values) the C backend reads: palm centre, handle centre, handle x (long) and y (normal) axes.
+#: Frame sensors (12 values) both backends read: palm centre, handle centre, handle x (long) and y (normal) axes.
 SENSORS = ("palm_pos", "handle_pos", "handle_xaxis", "handle_yaxis")
+#: Contact-load sensors after them (22 values): the wrist force and torque (N, N m; the load the virtual arm
+#: carries, in the wrist frame) and the normal contact force on the palm and on each of the 15 phalanges (N).
+FORCE_SENSORS = ("wrist_force", "wrist_torque")
+FORCE_SIZE = 6 + 16
+WRIST_SITE = "wrist_ft"
 TARGET_JOINT = "target_joint"
 TARGET_BODY = "object_target"
 HANDLE_SITE = "handle"
@@ -156,6 +161,7 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     world = ET.SubElement(root, "worldbody")
     ET.SubElement(world, "light", pos="0 -1 2.5", dir="0.2 0.4 -1", directional="true", diffuse="0.8 0.8 0.8")
     hand_body, actuators = hand_lib.build_hand_mjcf(config.hand)
+    ET.SubElement(hand_body, "site", name=WRIST_SITE, pos="0 0 0", size="0.005", group="4")
     world.append(hand_body)
 
     obj_body = ET.SubElement(world, "body", name="object", pos=_fmt(pos))
@@ -207,6 +213,10 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     ET.SubElement(sensor, "framepos", name=SENSORS[1], objtype="site", objname=HANDLE_SITE)
     ET.SubElement(sensor, "framexaxis", name=SENSORS[2], objtype="site", objname=HANDLE_SITE)
     ET.SubElement(sensor, "frameyaxis", name=SENSORS[3], objtype="site", objname=HANDLE_SITE)
+    ET.SubElement(sensor, "force", name=FORCE_SENSORS[0], site=WRIST_SITE)
+    ET.SubElement(sensor, "torque", name=FORCE_SENSORS[1], site=WRIST_SITE)
+    for name in hand_lib.touch_site_names(config.hand.side):
+        ET.SubElement(sensor, "touch", name=name, site=name)
     xml = ET.tostring(root, encoding="unicode")
     try:
         model = mujoco.MjModel.from_xml_string(xml)

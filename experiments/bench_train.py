@@ -13,7 +13,7 @@ import jax
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.bench import machine
-from dragmesh2_jax.cli import make_trainer
+from dragmesh2_jax.runs import make_trainer
 
 
 def main() -> None:

@@ -10,8 +10,8 @@ import time
 from pathlib import Path
 
 from dragmesh2_jax.baselines.tracking import track
-from dragmesh2_jax.cli import _floats_arg, load_task
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.runs import load_task, parse_floats
 
 
 def main() -> None:
@@ -20,7 +20,7 @@ def main() -> None:
     p.add_argument("--damping", default="1,2,4")
     p.add_argument("--backend", default="mujoco")
     args = p.parse_args()
-    dampings = _floats_arg(args.damping, "--damping")
+    dampings = parse_floats(args.damping, "--damping")
     print("| object | category | joint | gate | " + " | ".join(f"x{d:g}" for d in dampings) + " | s |")
     print("|" + "---|" * (len(dampings) + 5))
     for obj in args.objects:

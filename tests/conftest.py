@@ -69,3 +69,12 @@ def default_scene():
     from dragmesh2_jax.scene import build_scene
 
     return build_scene(load_gapartnet(default_object()))
+
+
+@pytest.fixture(scope="session")
+def drawer_task():
+    """The packaged drawer with a generated trajectory, on the C backend (compiles in ~1 s)."""
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.runs import load_task
+
+    return load_task(str(default_object()), None, backend="mujoco")

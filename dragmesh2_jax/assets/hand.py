@@ -145,6 +145,16 @@ def fingertip_site_names(side: str = "right") -> tuple[str, ...]:
     return tuple(f"{p}_{f}_tip" for f in FINGERS)
 
 
+#: Touch sites enclose each hand geom by this margin (m), so a touch sensor sums that geom's contact normal forces.
+TOUCH_MARGIN = 0.002
+
+
+def touch_site_names(side: str = "right") -> tuple[str, ...]:
+    """One touch site per hand collision geom: the palm, then the 15 phalanges in spec order."""
+    p = prefix(side)
+    return (f"{p}_palm_touch", *(f"{p}_{ph.name}_touch" for ph in PHALANGES))
+
+
 def palm_site_name(side: str = "right") -> str:
     return f"{prefix(side)}_palm_centre"
 
@@ -161,6 +171,13 @@ def dof_ranges(config: HandConfig = HandConfig()) -> np.ndarray:
         for lo, hi in (ph.range_x, ph.range_y, ph.range_z):
             rows.append([math.radians(lo), math.radians(hi)])
     return np.asarray(rows, dtype=np.float64)
+
+
+def active_dofs(config: HandConfig = HandConfig()) -> np.ndarray:
+    """(51,) bool: the DoFs that move. The 24 finger axes locked to +-0.1 deg (facts §11) take an action that
+    moves nothing; everything else (6 wrist + 21 finger DoFs) is active."""
+    r = dof_ranges(config)
+    return (r[:, 1] - r[:, 0]) > 2 * math.radians(max(abs(x) for x in _LOCK)) + 1e-9
 
 
 def _mirror(v, side: str):
@@ -211,6 +228,8 @@ def build_hand_mjcf(config: HandConfig = HandConfig()) -> tuple[ET.Element, ET.E
                   mass=f"{PALM_MASS}", **geom_common)
     ET.SubElement(wrist, "site", name=palm_site_name(side), pos=_fmt(_mirror(PALM_OFFSET, side)), size="0.006",
                   rgba="1 0 0 1", group="3")
+    ET.SubElement(wrist, "site", name=touch_site_names(side)[0], type="box", pos=_fmt(palm_pos),
+                  size=_fmt(np.asarray(PALM_BOX_HALF) + TOUCH_MARGIN), group="4")
 
     parents = {}
     for k, ph in enumerate(PHALANGES):
@@ -226,6 +245,8 @@ def build_hand_mjcf(config: HandConfig = HandConfig()) -> tuple[ET.Element, ET.E
         ft = _mirror(ph.fromto, side)
         ET.SubElement(body, "geom", name=f"{p}_{ph.name}_geom", type="capsule", fromto=_fmt(ft), size=f"{ph.radius}",
                       density=f"{PHALANX_DENSITY}", **geom_common)
+        ET.SubElement(body, "site", name=touch_site_names(side)[1 + k], type="capsule", fromto=_fmt(ft),
+                      size=f"{ph.radius + TOUCH_MARGIN}", group="4")
         if seg == 3:
             a, b = np.asarray(ft[:3]), np.asarray(ft[3:])
             tip = b + ph.radius * (b - a) / np.linalg.norm(b - a)

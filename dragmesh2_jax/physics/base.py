@@ -1,19 +1,22 @@
 """The physics backend interface the task is written against (one world; the task ``vmap``s it).
 
 A backend owns an opaque per-world physics state (a pytree) and offers:
-  * ``reset_state()``   the post-settle expert grasp state (identical on every backend: it is computed once
-                        on the host with the C engine, see :func:`settled_reset`);
+  * ``reset_state(i)``  the i-th post-settle start state: the expert grasp, or one of a bank of perturbed
+                        expert grasps (identical on every backend: each is computed once on the host with the
+                        C engine, see :func:`settled_reset`);
   * ``step(ps, ctrl, damping, friction)``  n substeps with hand PD targets ``ctrl`` (51,), the target joint's
                         viscous damping (absolute) and a friction scale for object geoms;
   * ``kinematics(ps)``  the few quantities the task reads: hand q/qd (51), target-joint q/qd, palm centre,
-                        handle centre and handle axes (long, normal), world frame. Positions are those MuJoCo
-                        computed at the start of the last substep (as ``mj_step`` leaves ``site_xpos``).
+                        handle centre and handle axes (long, normal), world frame, and the contact-load sensors
+                        (wrist force/torque, palm and phalanx normal forces). Positions and sensors are those
+                        MuJoCo computed at the start of the last substep (as ``mj_step`` leaves them).
 """
 
 from __future__ import annotations
 
 from typing import Any, Protocol
 
+import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
@@ -31,6 +34,7 @@ class Kinematics:
     palm: jnp.ndarray  # (3,) m
     handle_pos: jnp.ndarray  # (3,) m
     handle_rot: jnp.ndarray  # (6,) handle long axis and outward normal (unit vectors)
+    force: jnp.ndarray  # (FORCE_SIZE,) wrist force (3, N) and torque (3, N m), palm + 15 phalanx touch (16, N)
 
 
 class Backend(Protocol):
@@ -38,15 +42,19 @@ class Backend(Protocol):
     scene: Scene
     substeps: int
 
-    def reset_state(self) -> Any: ...
+    def reset_state(self, index: jnp.ndarray) -> Any: ...
 
     def step(self, ps: Any, ctrl: jnp.ndarray, damping: jnp.ndarray, friction: jnp.ndarray) -> Any: ...
 
     def kinematics(self, ps: Any) -> Kinematics: ...
 
 
+#: A start state: (hand q (51), target-joint q), written at rest and settled (the expert grasp, or a perturbed one).
+Start = tuple[np.ndarray, float]
+
+
 def settled_reset(scene: Scene, hand_q: np.ndarray, obj_q: float, settle_substeps: int) -> mujoco.MjData:
-    """The expert grasp state after ``settle_substeps`` physics steps from rest with PD target = hand pose
+    """The start state after ``settle_substeps`` physics steps from rest with PD target = hand pose
     (facts §4: 4 settle steps), at nominal damping. Returned MjData is what every backend resets to."""
     m, ids = scene.model, scene.ids
     d = mujoco.MjData(m)
@@ -59,10 +67,10 @@ def settled_reset(scene: Scene, hand_q: np.ndarray, obj_q: float, settle_substep
     return d
 
 
-def kinematics_from_mjdata(scene: Scene, d: mujoco.MjData) -> dict[str, np.ndarray]:
-    ids = scene.ids
-    R = d.site_xmat[ids.handle_site].reshape(3, 3)
-    return {"hand_q": d.qpos[ids.hand_qpos].copy(), "hand_qd": d.qvel[ids.hand_dof].copy(),
-            "obj_q": np.asarray(d.qpos[ids.target_qpos]), "obj_qd": np.asarray(d.qvel[ids.target_dof]),
-            "palm": d.site_xpos[ids.palm_site].copy(), "handle_pos": d.site_xpos[ids.handle_site].copy(),
-            "handle_rot": np.concatenate([R[:, 0], R[:, 1]])}
+def stack_states(states: list) -> Any:
+    """A bank of per-world states (pytrees) stacked on a leading axis."""
+    return jax.tree.map(lambda *xs: jnp.stack(xs), *states)
+
+
+def take_state(bank: Any, index: jnp.ndarray) -> Any:
+    return jax.tree.map(lambda x: x[index], bank)

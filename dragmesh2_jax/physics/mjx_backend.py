@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from mujoco import mjx
 
-from dragmesh2_jax.physics.base import Kinematics, settled_reset
-from dragmesh2_jax.scene import Scene
+from dragmesh2_jax.physics.base import Kinematics, Start, settled_reset, stack_states, take_state
+from dragmesh2_jax.scene import FORCE_SIZE, SENSORS, Scene
 
 
 def warn_cpu_batch(num_worlds: int) -> None:
@@ -25,20 +24,21 @@ def warn_cpu_batch(num_worlds: int) -> None:
 class MjxBackend:
     name = "mjx"
 
-    def __init__(self, scene: Scene, substeps: int, reset_hand_q: np.ndarray, reset_obj_q: float,
-                 settle_substeps: int = 4, impl: str = "jax"):
+    def __init__(self, scene: Scene, substeps: int, starts: list[Start], settle_substeps: int = 4,
+                 impl: str = "jax"):
         self.scene, self.substeps, self.impl = scene, substeps, impl
         self.model = mjx.put_model(scene.model, impl=impl)
-        d0 = settled_reset(scene, reset_hand_q, reset_obj_q, settle_substeps)
-        self._reset = mjx.put_data(scene.model, d0, impl=impl)
+        self._bank = stack_states([mjx.put_data(scene.model, settled_reset(scene, hand_q, obj_q, settle_substeps),
+                                                impl=impl) for hand_q, obj_q in starts])
         ids = scene.ids
         self._hand_qpos, self._hand_dof = jnp.asarray(ids.hand_qpos), jnp.asarray(ids.hand_dof)
         self._act = jnp.asarray(ids.hand_actuators)
         self._obj_geoms = jnp.asarray(ids.object_collision_geoms)
         self._friction0 = jnp.asarray(scene.model.geom_friction)
+        self._force = slice(3 * len(SENSORS), 3 * len(SENSORS) + FORCE_SIZE)
 
-    def reset_state(self) -> mjx.Data:
-        return self._reset
+    def reset_state(self, index) -> mjx.Data:
+        return take_state(self._bank, index)
 
     def step(self, ps: mjx.Data, ctrl, damping, friction) -> mjx.Data:
         ids = self.scene.ids
@@ -59,4 +59,5 @@ class MjxBackend:
         return Kinematics(hand_q=ps.qpos[self._hand_qpos], hand_qd=ps.qvel[self._hand_dof],
                           obj_q=ps.qpos[ids.target_qpos], obj_qd=ps.qvel[ids.target_dof],
                           palm=ps.site_xpos[ids.palm_site], handle_pos=ps.site_xpos[ids.handle_site],
-                          handle_rot=jnp.concatenate([R[:, 0], R[:, 1]]))
+                          handle_rot=jnp.concatenate([R[:, 0], R[:, 1]]),
+                          force=ps.sensordata[self._force])

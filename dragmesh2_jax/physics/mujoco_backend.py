@@ -21,15 +21,15 @@ import numpy as np
 from flax import struct
 from mujoco import rollout
 
-from dragmesh2_jax.physics.base import Kinematics, settled_reset
-from dragmesh2_jax.scene import SENSORS, Scene
+from dragmesh2_jax.physics.base import Kinematics, Start, settled_reset, stack_states, take_state
+from dragmesh2_jax.scene import FORCE_SIZE, SENSORS, Scene
 
 
 @struct.dataclass
 class CState:
     qpos: jnp.ndarray
     qvel: jnp.ndarray
-    sensors: jnp.ndarray  # palm (3), handle pos (3), handle x axis (3), handle y axis (3)
+    sensors: jnp.ndarray  # palm (3), handle pos (3), handle x axis (3), handle y axis (3), contact load (22)
 
 
 class _HostStepper:
@@ -80,19 +80,19 @@ class _HostStepper:
 class MujocoBackend:
     name = "mujoco"
 
-    def __init__(self, scene: Scene, substeps: int, reset_hand_q: np.ndarray, reset_obj_q: float,
-                 settle_substeps: int = 4, nthread: int | None = None):
+    def __init__(self, scene: Scene, substeps: int, starts: list[Start], settle_substeps: int = 4,
+                 nthread: int | None = None):
         self.scene, self.substeps = scene, substeps
         self.nthread = nthread or os.cpu_count() or 1
         self._host = _HostStepper(scene, substeps, self.nthread)
-        d0 = settled_reset(scene, reset_hand_q, reset_obj_q, settle_substeps)
-        self._reset = CState(qpos=jnp.asarray(d0.qpos), qvel=jnp.asarray(d0.qvel),
-                             sensors=jnp.asarray(d0.sensordata[: len(SENSORS) * 3]))
+        ds = [settled_reset(scene, hand_q, obj_q, settle_substeps) for hand_q, obj_q in starts]
+        self._bank = stack_states([CState(qpos=jnp.asarray(d.qpos), qvel=jnp.asarray(d.qvel),
+                                          sensors=jnp.asarray(d.sensordata)) for d in ds])
         self._hand_qpos = jnp.asarray(scene.ids.hand_qpos)
         self._hand_dof = jnp.asarray(scene.ids.hand_dof)
 
-    def reset_state(self) -> CState:
-        return self._reset
+    def reset_state(self, index) -> CState:
+        return take_state(self._bank, index)
 
     def step(self, ps: CState, ctrl, damping, friction) -> CState:
         dt = ps.qpos.dtype
@@ -111,7 +111,7 @@ class MujocoBackend:
 
     def kinematics(self, ps: CState) -> Kinematics:
         ids = self.scene.ids
-        s = ps.sensors
+        s, n = ps.sensors, 3 * len(SENSORS)
         return Kinematics(hand_q=ps.qpos[self._hand_qpos], hand_qd=ps.qvel[self._hand_dof],
                           obj_q=ps.qpos[ids.target_qpos], obj_qd=ps.qvel[ids.target_dof],
-                          palm=s[0:3], handle_pos=s[3:6], handle_rot=s[6:12])
+                          palm=s[0:3], handle_pos=s[3:6], handle_rot=s[6:12], force=s[n:n + FORCE_SIZE])

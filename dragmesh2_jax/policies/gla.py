@@ -4,6 +4,12 @@ per head), low-rank gate (rank 16) with log-sigmoid / 16, output gate swish(g_pr
 no short convolution; run from a zero state over the whole token window.
 
 Recurrence per head:  S_t = diag(exp(g_t)) S_{t-1} + k_t^T v_t,   o_t = (q_t / sqrt(d_k)) S_t.
+
+The policy reads only the last token's output, so the layer computes just o_T, in closed form:
+S_T = sum_t diag(exp(G_T - G_t)) k_t^T v_t with G_t = sum_{s<=t} g_s, hence
+o_T = sum_t [sum_k q_T,k exp(G_T,k - G_t,k) k_t,k] v_t: two einsums, no scan over time. Every decay factor is
+<= 1 (g <= 0), so the form is as stable as the recurrence. ``gla_recurrent`` keeps the full recurrence as the
+specification the closed form is tested against.
 """
 
 from __future__ import annotations
@@ -32,6 +38,17 @@ def gla_recurrent(q, k, v, g, state0=None):
     return jnp.moveaxis(o, 0, -3), S
 
 
+def gla_last(q_last, k, v, g):
+    """The last token's output of gated linear attention, in closed form (no scan).
+
+    q_last: (..., H, dk) (already scaled); k, g: (..., T, H, dk); v: (..., T, H, dv). Returns (..., H, dv),
+    equal to ``gla_recurrent(q, k, v, g)[0][..., -1, :, :]``."""
+    G = jnp.cumsum(g, axis=-3)
+    decay = jnp.exp(G[..., -1:, :, :] - G)  # (..., T, H, dk): prod_{s=t+1..T} exp(g_s), each <= 1
+    attn = jnp.einsum("...hk,...thk->...th", q_last, decay * k)
+    return jnp.einsum("...th,...thv->...hv", attn, v)
+
+
 class GatedLinearAttention(nn.Module):
     hidden: int = 128
     heads: int = 4
@@ -43,20 +60,21 @@ class GatedLinearAttention(nn.Module):
 
     @nn.compact
     def __call__(self, x):
-        """x: (..., T, hidden) -> (..., T, hidden)."""
+        """x: (..., T, hidden) -> the last token's output (..., hidden)."""
         H = self.heads
         dk, dv = int(self.hidden * self.expand_k), int(self.hidden * self.expand_v)
         hk, hv = dk // H, dv // H
         split = lambda y, d: y.reshape(*y.shape[:-1], H, d)  # noqa: E731
-        q = split(nn.Dense(dk, use_bias=False, name="q_proj")(x), hk) * hk**-0.5
+        last = x[..., -1, :]
+        q = split(nn.Dense(dk, use_bias=False, name="q_proj")(last), hk) * hk**-0.5
         k = split(nn.Dense(dk, use_bias=False, name="k_proj")(x), hk)
         v = split(nn.Dense(dv, use_bias=False, name="v_proj")(x), hv)
         gk = nn.Dense(dk, name="gk_up", bias_init=nn.initializers.zeros)(
             nn.Dense(self.gate_rank, use_bias=False, name="gk_down")(x))
         gk = split(jax.nn.log_sigmoid(gk) / self.gate_normalizer, hk)
-        o, _ = gla_recurrent(q, k, v, gk)
+        o = gla_last(q, k, v, gk)
         scale = self.param("g_norm_scale", nn.initializers.ones, (hv,))
         o = o * jax.lax.rsqrt(jnp.mean(o**2, axis=-1, keepdims=True) + self.norm_eps) * scale
-        g = split(nn.Dense(dv, use_bias=False, name="g_proj")(x), hv)
+        g = split(nn.Dense(dv, use_bias=False, name="g_proj")(last), hv)
         o = (o * nn.swish(g)).reshape(*o.shape[:-2], dv)
         return nn.Dense(self.hidden, use_bias=False, name="o_proj")(o)

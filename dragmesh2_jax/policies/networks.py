@@ -6,7 +6,11 @@ the Gaussian mean (51) and the value. The auxiliary head (128 -> 64 -> 4) reads 
 
 Temporal encoders: ``gla`` (PICA), ``flat`` (flattened history MLP), ``gru``, ``transformer`` (causal,
 1 block), or ``none`` (state-only PPO). The aux targets are not an input of any of them (``ActorCritic``
-only ever receives ``obs.state`` and ``obs.history``).
+only ever receives ``obs.state``, ``obs.history`` and ``obs.privileged``).
+
+Critic: ``shared`` (the paper: value head on the actor's fused features) or ``privileged`` (beyond the paper,
+an asymmetric critic as in MuJoCo Playground's LEAP hand: its own MLP on [s_t, privileged], where privileged =
+damping and friction multipliers and the contact load; the actor never sees them).
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import jax.numpy as jnp
 from dragmesh2_jax.policies.gla import GatedLinearAttention
 
 ENCODERS = ("none", "flat", "gla", "gru", "transformer")
+CRITICS = ("shared", "privileged")
 _zeros = nn.initializers.zeros
 
 
@@ -45,9 +50,9 @@ class TemporalEncoder(nn.Module):
             x = history.reshape(*history.shape[:-2], -1)
             return nn.LayerNorm(name="hist_norm")(MLP((256, self.dim))(x))
         x = nn.Dense(self.dim, bias_init=_zeros, name="token_proj")(history)
-        if self.kind == "gla":
-            x = GatedLinearAttention(hidden=self.dim, heads=self.heads)(x)
-        elif self.kind == "gru":
+        if self.kind == "gla":  # computes the last token's output only (closed form)
+            return nn.LayerNorm(name="hist_norm")(GatedLinearAttention(hidden=self.dim, heads=self.heads)(x))
+        if self.kind == "gru":
             cell = nn.GRUCell(features=self.dim)
             x = nn.RNN(cell)(x.reshape(-1, *x.shape[-2:])).reshape(x.shape)
         elif self.kind == "transformer":
@@ -70,12 +75,18 @@ class ActorCritic(nn.Module):
     action_size: int = 51
     log_std_init: float = -2.0
     aux_size: int = 4
+    critic: str = "shared"
+    critic_sizes: Sequence[int] = (512, 256)  # the privileged critic's MLP
 
     def setup(self):
         self.state_mlp = MLP(self.state_sizes)
         if self.encoder != "none":
             self.temporal = TemporalEncoder(self.encoder, self.hist_dim, self.heads)
         self.mu = nn.Dense(self.action_size, bias_init=_zeros)
+        if self.critic == "privileged":
+            self.critic_mlp = MLP(self.critic_sizes)
+        elif self.critic != "shared":
+            raise ValueError(f"unknown critic {self.critic!r}")
         self.value = nn.Dense(1, bias_init=_zeros)
         self.log_std = self.param("log_std", nn.initializers.constant(self.log_std_init), (self.action_size,))
         self.aux_head = MLP((64,))
@@ -88,16 +99,22 @@ class ActorCritic(nn.Module):
         h = self.temporal(history)
         return jnp.concatenate([z, h], axis=-1), h
 
-    def __call__(self, state, history):
+    def __call__(self, state, history, privileged):
         """-> (action mean (51), log std (51), value (), z_hist or None)."""
         fused, h = self.features(state, history)
-        return self.mu(fused), self.log_std, self.value(fused)[..., 0], h
+        v_in = self.critic_mlp(jnp.concatenate([state, privileged], -1)) if self.critic == "privileged" else fused
+        return self.mu(fused), self.log_std, self.value(v_in)[..., 0], h
+
+    def actor(self, state, history):
+        """-> (action mean (51), log std (51)): the policy alone (no critic, no privileged input)."""
+        fused, _ = self.features(state, history)
+        return self.mu(fused), self.log_std
 
     def aux(self, z_hist):
         """Auxiliary prediction of y_t from the contact-history feature alone."""
         return self.aux_out(self.aux_head(z_hist))
 
-    def init_all(self, state, history):
+    def init_all(self, state, history, privileged):
         """Initialise every parameter, the aux head included."""
-        _, _, _, h = self(state, history)
+        _, _, _, h = self(state, history, privileged)
         return self.aux(h if h is not None else jnp.zeros((*state.shape[:-1], self.hist_dim)))

@@ -23,6 +23,7 @@ from dragmesh2_jax.ppo.normalize import RunningStats
 from dragmesh2_jax.task.env import Obs, PullTask, State, make_batched
 
 LOG2PI = float(np.log(2 * np.pi))
+CLIP_LEVEL = 0.99  # clip099: a step whose max |a_i| exceeds this counts as saturated (facts §8)
 
 
 @struct.dataclass
@@ -33,6 +34,7 @@ class TrainState:
     state_stats: RunningStats
     token_stats: RunningStats
     aux_stats: RunningStats
+    privileged_stats: RunningStats
     value_stats: RunningStats
     rng: jax.Array
     epoch: jnp.ndarray
@@ -44,6 +46,7 @@ class Batch:
     state: jnp.ndarray
     history: jnp.ndarray
     aux: jnp.ndarray
+    privileged: jnp.ndarray
     action: jnp.ndarray
     logp: jnp.ndarray
     mu: jnp.ndarray  # rollout-time action mean (for the exact KL)
@@ -77,8 +80,9 @@ class Trainer:
 
     def __init__(self, task: PullTask, method: Method, config: PPOConfig = PPOConfig()):
         self.task, self.method, self.config = task, method, config
-        self.net = ActorCritic(encoder=method.encoder, action_size=task.action_size)
+        self.net = ActorCritic(encoder=method.encoder, action_size=task.action_size, critic=method.critic)
         self.use_aux = method.physical_signals and method.encoder != "none"
+        self.aram = task.config.reward.aram
         self.reset, self.step = make_batched(task)
         if getattr(getattr(task, "backend", None), "name", None) == "mjx":
             from dragmesh2_jax.physics.mjx_backend import warn_cpu_batch
@@ -88,15 +92,49 @@ class Trainer:
                               optax.inject_hyperparams(optax.adam)(learning_rate=config.lr))
         self.epoch = jax.jit(self._epoch)
 
+    def _update_aram_lambda(self, env_state: State, metrics: dict):
+        """lambda_ARAM, once per epoch (facts §5): when the epoch's success exceeds the gate,
+        lambda <- clip(lambda + lr (clip099 - target), 0, lambda_max). It lives in every world's env info."""
+        a = self.aram
+        lam = env_state.info["aram_lambda"][0]
+        ok = (metrics["success"] > a.success_gate) & (metrics["episodes"] > 0)
+        lam = jnp.where(ok, jnp.clip(lam + a.lr * (metrics["clip099"] - a.target), 0.0, a.lambda_max), lam)
+        info = {**env_state.info, "aram_lambda": jnp.full_like(env_state.info["aram_lambda"], lam)}
+        return env_state.replace(info=info), lam
+
     # ----------------------------------------------------------------------------------------- helpers
     def inputs(self, ts: TrainState, obs: Obs):
-        """Normalised policy inputs (state, history). The aux targets never enter the network."""
+        """Normalised network inputs (state, history, privileged). The aux targets never enter the network;
+        the privileged block reaches only a privileged critic."""
         if not self.config.normalize_obs:
-            return obs.state, obs.history
-        return ts.state_stats.normalize(obs.state), ts.token_stats.normalize(obs.history)
+            return obs.state, obs.history, obs.privileged
+        return (ts.state_stats.normalize(obs.state), ts.token_stats.normalize(obs.history),
+                ts.privileged_stats.normalize(obs.privileged))
 
     def apply(self, params, ts, obs: Obs):
         return self.net.apply(params, *self.inputs(ts, obs))
+
+    # ---------------------------------------------------------------------------------------- the policy
+    @staticmethod
+    def policy_params(ts: TrainState) -> dict:
+        """What the policy needs: network parameters and the observation normalisers."""
+        return {"net": ts.params, "state_stats": ts.state_stats, "token_stats": ts.token_stats}
+
+    def make_policy(self, deterministic: bool = True):
+        """The policy as a function ``(policy_params, obs, key) -> action`` (Brax's ``make_inference_fn``):
+        the Gaussian mean (det) or a sample (stoch). It reads obs.state and obs.history only."""
+        normalize = self.config.normalize_obs
+
+        def policy(params, obs: Obs, key):
+            s, h = obs.state, obs.history
+            if normalize:
+                s, h = params["state_stats"].normalize(s), params["token_stats"].normalize(h)
+            mu, log_std = self.net.apply(params["net"], s, h, method=ActorCritic.actor)
+            if deterministic:
+                return mu
+            return mu + jnp.exp(log_std) * jax.random.normal(key, mu.shape)
+
+        return policy
 
     def init(self, seed: int | None = None) -> TrainState:
         c = self.config
@@ -104,11 +142,13 @@ class Trainer:
         rng, k_net, k_env = jax.random.split(rng, 3)
         env_state = jax.jit(self.reset)(jax.random.split(k_env, c.num_envs))
         obs = env_state.obs  # sizes come from the env (120, 16 x 102, 4 for the pulling task)
-        params = self.net.init(k_net, obs.state[:1], obs.history[:1], method=ActorCritic.init_all)
+        params = self.net.init(k_net, obs.state[:1], obs.history[:1], obs.privileged[:1], method=ActorCritic.init_all)
         return TrainState(params=params, opt_state=self.tx.init(params), env_state=env_state,
                           state_stats=RunningStats.create(obs.state.shape[-1]),
                           token_stats=RunningStats.create(obs.history.shape[-1]),
-                          aux_stats=RunningStats.create(obs.aux.shape[-1]), value_stats=RunningStats.create(1),
+                          aux_stats=RunningStats.create(obs.aux.shape[-1]),
+                          privileged_stats=RunningStats.create(obs.privileged.shape[-1]),
+                          value_stats=RunningStats.create(1),
                           rng=rng, epoch=jnp.int32(0), lr=jnp.float32(c.lr))
 
     # ------------------------------------------------------------------------------------------- epoch
@@ -126,7 +166,8 @@ class Trainer:
             nxt = self.step(env_state, a)
             _, _, v_final, _ = self.apply(ts.params, ts, nxt.final_obs)
             reward = nxt.reward + c.gamma * denorm(v_final) * nxt.truncated  # bootstrap time limits only
-            out = {"state": obs.state, "history": obs.history, "aux": obs.aux, "action": a,
+            out = {"state": obs.state, "history": obs.history, "aux": obs.aux, "privileged": obs.privileged,
+                   "action": a,
                    "logp": gaussian_logp(a, mu, log_std), "mu": mu, "log_std": jnp.broadcast_to(log_std, mu.shape),
                    "value": v, "reward": reward,
                    "done": nxt.done.astype(jnp.float32), "metrics": nxt.metrics, "terminated": nxt.terminated}
@@ -139,7 +180,7 @@ class Trainer:
 
     def loss(self, params, ts: TrainState, b: Batch, w_aux):
         c = self.config
-        mu, log_std, v, z = self.net.apply(params, b.state, b.history)
+        mu, log_std, v, z = self.net.apply(params, b.state, b.history, b.privileged)
         logp = gaussian_logp(b.action, mu, log_std)
         ratio = jnp.exp(logp - b.logp)
         adv = b.advantage
@@ -170,13 +211,14 @@ class Trainer:
         vs = ts.value_stats.update(ret[..., None])  # value normalisation (the reference's normalize_value)
         n = c.num_envs * c.rollout_len
         flat = lambda x: x.reshape(n, *x.shape[2:])  # noqa: E731
-        obs = Obs(state=flat(traj["state"]), history=flat(traj["history"]), aux=flat(traj["aux"]))
-        s_in, h_in = self.inputs(ts, obs)
+        obs = Obs(state=flat(traj["state"]), history=flat(traj["history"]), aux=flat(traj["aux"]),
+                  privileged=flat(traj["privileged"]))
+        s_in, h_in, p_in = self.inputs(ts, obs)
         # values were predicted in the old value normalisation: re-express old predictions and targets in the new
         old_v = flat(traj["value"]) * jnp.sqrt(ts.value_stats.var[0] + 1e-5) + ts.value_stats.mean[0]
         norm = lambda x: (x - vs.mean[0]) / jnp.sqrt(vs.var[0] + 1e-5)  # noqa: E731
-        batch = Batch(state=s_in, history=h_in, aux=obs.aux, action=flat(traj["action"]), logp=flat(traj["logp"]),
-                      mu=flat(traj["mu"]), log_std=flat(traj["log_std"]),
+        batch = Batch(state=s_in, history=h_in, aux=obs.aux, privileged=p_in, action=flat(traj["action"]),
+                      logp=flat(traj["logp"]), mu=flat(traj["mu"]), log_std=flat(traj["log_std"]),
                       value=norm(old_v), advantage=flat(adv), target=norm(flat(ret)))
         ts = ts.replace(value_stats=vs)
         w_aux = c.aux_weight_at(ts.epoch)
@@ -208,14 +250,18 @@ class Trainer:
         info = jax.tree.map(lambda x: x[-1], info)
         if c.normalize_obs:  # statistics move after the update, so rollout and update saw the same inputs
             ts = ts.replace(state_stats=ts.state_stats.update(obs.state),
-                            token_stats=ts.token_stats.update(obs.history), aux_stats=ts.aux_stats.update(obs.aux))
+                            token_stats=ts.token_stats.update(obs.history), aux_stats=ts.aux_stats.update(obs.aux),
+                            privileged_stats=ts.privileged_stats.update(obs.privileged))
         m, done = traj["metrics"], traj["done"]
         episodes = done.sum()
         at_end = lambda x: jnp.sum(x * done) / jnp.maximum(episodes, 1.0)  # noqa: E731
         metrics = {
             **info, "lr": ts.lr, "w_aux": w_aux, "reward": traj["reward"].mean(), "episodes": episodes,
             "success": at_end(m["success"]), "progress": at_end(m["progress"]), "detach": at_end(m["detach"]),
-            "episode_return": at_end(m["episode_return"]), "clip099": jnp.mean(m["action_abs_max"] > 0.99),
+            "episode_return": at_end(m["episode_return"]), "clip099": jnp.mean(m["action_abs_max"] > CLIP_LEVEL),
+            "clip099_active": jnp.mean(m["active_abs_max"] > CLIP_LEVEL),
             "action_l2": m["action_l2"].mean(), "nonfinite": m["nonfinite"].sum(),
         }
+        if self.aram is not None:
+            env_state, metrics["aram_lambda"] = self._update_aram_lambda(env_state, metrics)
         return ts.replace(env_state=env_state, rng=rng, epoch=ts.epoch + 1), metrics

@@ -2,12 +2,53 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from dragmesh2_jax.errors import DragMeshError
 
 BACKENDS = ("auto", "mjx", "mujoco")
 IMPLS = ("jax", "warp")
+
+
+@dataclass(frozen=True)
+class AramConfig:
+    """ARAM-lite (the reference's v2d fine-tunes, facts §5): an adaptive penalty on large actions that do not
+    move the joint. stall counts consecutive steps with a low response q_t - q_{t-K}; once stall >= ``stall_steps``
+    while in contact (d < ``d_contact``) and ||a|| > ``action_norm``, r_aram = -lambda mean(a^2). lambda starts at
+    0 and moves once per epoch by ``lr (clip099 - target)`` when the epoch's success exceeds ``success_gate``."""
+
+    response: str = "raw"  # "raw" (|dq| < raw_eps) | "normalized" (|dq| / (q_goal - q_start) < frac) | "joint_aware"
+    raw_eps: float = 0.005  # m or rad
+    frac: float = 0.01  # normalized threshold (the joint-aware config's)
+    stall_steps: int = 5
+    d_contact: float = 0.10  # m
+    action_norm: float = 1.0  # ||a||_2
+    lr: float = 0.005
+    target: float = 0.7  # clip099 the update steers towards
+    success_gate: float = 0.7
+    lambda_max: float = 1.0
+
+    def __post_init__(self):
+        if self.response not in ("raw", "normalized", "joint_aware"):
+            raise DragMeshError(f"ARAM response must be raw, normalized or joint_aware, got {self.response!r}")
+
+
+@dataclass(frozen=True)
+class ReconfigConfig:
+    """Reconfig (facts §5): a bonus for regaining contact and response after a stall, gated and with a
+    cooldown: r = gate (w_contact max(0, d_{t-K} - d_t) + w_response max(0, dq_t - dq_{t-K})
+    + w_slip max(0, max d_{t-2K..t-K} - max d_{t-K..t}))."""
+
+    w_contact: float = 0.2
+    w_response: float = 1.0
+    w_slip: float = 0.5
+    stall_frac: float = 0.02  # |dq| / (q_goal - q_start) below this counts as a stall
+    d_contact: float = 0.10  # m
+    action_norm: float = 1.0
+    max_action_change: float = 4.0  # ||a_t - a_{t-1}||_2
+    max_hand_speed: float = 8.0  # ||hand qd||_2
+    cooldown: int = 10  # steps
 
 
 @dataclass(frozen=True)
@@ -29,6 +70,33 @@ class RewardConfig:
     a_sat: float = 0.90
     w_contact: float = 0.5  # PICA: max(d - d_safe, 0)^2
     d_safe: float = 0.08  # m
+    aram: AramConfig | None = None  # diagnostic fine-tunes (paper App. B.5): off in the main recipe
+    reconfig: ReconfigConfig | None = None
+
+
+@dataclass(frozen=True)
+class ResetNoise:
+    """A seeded perturbation of the expert grasp each episode starts from (not in the paper, whose reset is
+    exact: facts §4). ``bank`` perturbed starts are drawn once from ``seed`` and settled on the host like the
+    exact one; each reset picks one at random. Normal noise is truncated at 2 standard deviations, so every
+    start is within 2 sigma of the expert grasp; the object joint only opens (it starts at its closed limit)."""
+
+    wrist_pos: float = 0.003  # m, std per virtual slide
+    wrist_rot: float = 0.02  # rad, std per wrist hinge
+    fingers: float = 0.05  # rad, std per active finger joint (the 24 locked axes stay)
+    object_q: float = 0.05  # the object starts up to this fraction of (q_done - q_start) open, uniform
+    bank: int = 32  # perturbed starts
+    seed: int = 0
+
+    def __post_init__(self):
+        if min(self.wrist_pos, self.wrist_rot, self.fingers, self.object_q) < 0 or self.object_q >= 1:
+            raise DragMeshError("reset noise magnitudes must be >= 0 (and object_q < 1)")
+        if self.bank < 1:
+            raise DragMeshError(f"reset noise bank must be >= 1, got {self.bank}")
+
+
+#: The evaluation protocol's perturbed starts (``evaluate --exact-reset`` uses the paper's exact reset instead).
+EVAL_RESET_NOISE = ResetNoise(seed=12345)
 
 
 @dataclass(frozen=True)
@@ -46,6 +114,8 @@ class TaskConfig:
     damping_range: tuple[float, float] = (1.0, 2.0)  # x nominal, sampled per reset (training)
     damping_fixed: float | None = None  # evaluation: a fixed multiplier (x1, x2, x4, ...) instead
     friction_range: tuple[float, float] | None = None  # object friction scale; off by default
+    reset_noise: ResetNoise | None = None  # None: the paper's exact expert-grasp reset
+    force_obs: bool = False  # beyond the paper: contact-load sensors in s_t and in every history token
     backend: str = "auto"  # "mjx" | "mujoco" | "auto" (MJX on an accelerator, the C engine on a CPU)
     impl: str = "jax"  # MJX implementation: "jax" | "warp"
     nthread: int | None = None  # C backend threads (default: all cores)
@@ -63,8 +133,14 @@ class TaskConfig:
         lo, hi = self.damping_range
         if not 0 <= lo <= hi:
             raise DragMeshError(f"damping_range must satisfy 0 <= lo <= hi, got {self.damping_range}")
-        if self.damping_fixed is not None and self.damping_fixed < 0:
-            raise DragMeshError(f"damping multiplier must be >= 0, got {self.damping_fixed}")
+        if self.damping_fixed is not None and not (math.isfinite(self.damping_fixed) and self.damping_fixed >= 0):
+            raise DragMeshError(f"damping multiplier must be finite and >= 0, got {self.damping_fixed}")
+        if not all(math.isfinite(x) for x in self.damping_range):
+            raise DragMeshError(f"damping_range must be finite, got {self.damping_range}")
+        if self.friction_range is not None and not (
+                all(math.isfinite(x) for x in self.friction_range) and 0 <= self.friction_range[0]
+                <= self.friction_range[1]):
+            raise DragMeshError(f"friction_range must satisfy 0 <= lo <= hi, got {self.friction_range}")
         if not 0 < self.rho <= 1:
             raise DragMeshError(f"rho must be in (0, 1], got {self.rho}")
 

@@ -15,6 +15,15 @@ Observation (kept as separate fields, so each policy takes what it may):
                reset except the newest token [e_0, 0].
   obs.aux      y_t (4): [q_t - q_{t-K}, max_{t-K..t} d, 1(max d > d_detach), max_{t-K..t} ||e||] with K = 5.
                A training target only: never a policy input.
+  obs.privileged (2 + 22): [damping multiplier, friction multiplier, contact load f_t]: for an asymmetric
+               critic only, never an actor input.
+With ``TaskConfig.force_obs`` (beyond the paper) the contact load f_t (22) is appended to s_t (-> 142) and to
+every history token (-> 124). f_t = signed log1p of [wrist force (3, N), wrist torque (3, N m), normal contact
+force on the palm and each of the 15 phalanges (16, N)], so that a grip and a yank fit one scale.
+
+Reset: each episode starts at the expert grasp (drag-start frame, settled), or, with ``TaskConfig.reset_noise``,
+at one of a bank of seeded perturbations of it (evaluation uses one by default, so a deterministic cell is a
+distribution, not one episode repeated).
 """
 
 from __future__ import annotations
@@ -23,19 +32,23 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
+from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL, active_dofs
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.physics.base import Backend, Kinematics
-from dragmesh2_jax.scene import Scene
-from dragmesh2_jax.task.config import TaskConfig
-from dragmesh2_jax.task.rewards import reward_terms
+from dragmesh2_jax.physics.base import Backend, Kinematics, Start
+from dragmesh2_jax.scene import FORCE_SIZE, Scene
+from dragmesh2_jax.task.config import ResetNoise, TaskConfig
+from dragmesh2_jax.task.rewards import aram_penalty, reconfig_bonus, reward_terms
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 STATE_SIZE = 120
-TOKEN_SIZE = 102
+TOKEN_SIZE = 2 * NUM_DOFS
 AUX_SIZE = 4
-METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "action_l2", "palm_dist", "reward",
+PRIVILEGED_SIZE = 2 + FORCE_SIZE
+METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "active_abs_max", "action_l2", "palm_dist",
+           "reward",
            "nonfinite", "episode_return", "episode_length", "q")
 
 
@@ -44,6 +57,7 @@ class Obs:
     state: jnp.ndarray
     history: jnp.ndarray
     aux: jnp.ndarray
+    privileged: jnp.ndarray
 
 
 @struct.dataclass
@@ -89,14 +103,33 @@ def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
         raise DragMeshError("trajectory never moves its target joint (zero motion range)")
 
 
+def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None) -> list[Start]:
+    """The start states of the task: the expert grasp (drag-start frame), or ``noise.bank`` seeded
+    perturbations of it (truncated normal on the wrist pose and the active finger joints; the object joint
+    opened by a uniform fraction of the distance to q_done)."""
+    frame = traj.frames[traj.drag_start]
+    hand_q, obj_q = np.asarray(frame.hand_q, np.float64), float(frame.joint_positions[traj.target_index])
+    if noise is None:
+        return [(hand_q, obj_q)]
+    rng = np.random.default_rng(noise.seed)
+    fingers = np.flatnonzero(active_dofs(scene.config.hand)[NUM_VIRTUAL:]) + NUM_VIRTUAL
+    trunc = lambda std, n: std * np.clip(rng.standard_normal(n), -2.0, 2.0)  # noqa: E731
+    starts = []
+    for _ in range(noise.bank):
+        dq = np.zeros(NUM_DOFS)
+        dq[:3], dq[3:NUM_VIRTUAL] = trunc(noise.wrist_pos, 3), trunc(noise.wrist_rot, 3)
+        dq[fingers] = trunc(noise.fingers, len(fingers))
+        opened = rng.uniform(0.0, noise.object_q) * (traj.q_done - traj.q_start)
+        starts.append((hand_q + dq, obj_q + opened))
+    return starts
+
+
 def make_backend(scene: Scene, traj: Trajectory, config: TaskConfig) -> Backend:
     substeps = config.control_dt / scene.config.timestep
     if abs(substeps - round(substeps)) > 1e-6 or round(substeps) < 1:
         raise DragMeshError(f"control_dt {config.control_dt} is not a whole number of timesteps "
                             f"{scene.config.timestep}")
-    start = traj.frames[traj.drag_start]
-    args = (scene, int(round(substeps)), start.hand_q, float(start.joint_positions[traj.target_index]),
-            config.settle_substeps)
+    args = (scene, int(round(substeps)), reset_starts(scene, traj, config.reset_noise), config.settle_substeps)
     if config.resolved_backend() == "mjx":
         from dragmesh2_jax.physics.mjx_backend import MjxBackend
 
@@ -117,7 +150,12 @@ class PullTask:
         self.params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
                                  q_done=jnp.float32(traj.q_done), damping=jnp.float32(scene.config.damping),
                                  hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32))
-        self.action_size = 51
+        starts = reset_starts(scene, traj, config.reset_noise)
+        self._start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), self.params.hand_lo,
+                                    self.params.hand_hi)  # the PD target each start was settled with
+        self.num_starts = len(starts)
+        self.action_size = NUM_DOFS
+        self.active = jnp.asarray(active_dofs(scene.config.hand))
         self.substeps = self.backend.substeps
 
     # ------------------------------------------------------------------------------------------ helpers
@@ -130,11 +168,27 @@ class PullTask:
         """p_t = max(0, (q - q_start) / (q_goal - q_start)) (paper eq. progress)."""
         return self._phi(q)[0]
 
+    @staticmethod
+    def _load(k: Kinematics) -> jnp.ndarray:
+        """f_t: the contact-load sensors, signed log1p (N, N m)."""
+        return (jnp.sign(k.force) * jnp.log1p(jnp.abs(k.force))).astype(jnp.float32)
+
     def _state_obs(self, k: Kinematics) -> jnp.ndarray:
         rel = k.handle_pos - k.palm
         d = jnp.linalg.norm(rel)
-        return jnp.concatenate([k.hand_q, k.hand_qd, k.handle_pos, k.handle_rot, rel, d[None], k.obj_q[None],
-                                k.obj_qd[None], self._phi(k.obj_q)]).astype(jnp.float32)
+        parts = [k.hand_q, k.hand_qd, k.handle_pos, k.handle_rot, rel, d[None], k.obj_q[None], k.obj_qd[None],
+                 self._phi(k.obj_q)]
+        if self.config.force_obs:
+            parts.append(self._load(k))
+        return jnp.concatenate(parts).astype(jnp.float32)
+
+    def _token(self, e, a, k: Kinematics) -> jnp.ndarray:
+        """h_t = [e_t, a_{t-1}] (paper), [e_t, a_{t-1}, f_t] with ``force_obs``."""
+        parts = [e, a, self._load(k)] if self.config.force_obs else [e, a]
+        return jnp.concatenate(parts).astype(jnp.float32)
+
+    def _privileged(self, info, k: Kinematics) -> jnp.ndarray:
+        return jnp.concatenate([jnp.stack([info["damping_scale"], info["friction_scale"]]), self._load(k)])
 
     def _sample_scales(self, key):
         c = self.config
@@ -160,12 +214,14 @@ class PullTask:
 
     def _reset(self, key, damp, fric, fixed) -> State:
         c = self.config
-        ps = self.backend.reset_state()
+        key, k_start = jax.random.split(key)
+        start = jax.random.randint(k_start, (), 0, self.num_starts)
+        ps = self.backend.reset_state(start)
         k = self.backend.kinematics(ps)
-        ctrl = jnp.clip(jnp.asarray(self.traj.frames[self.traj.drag_start].hand_q, jnp.float32), self.params.hand_lo,
-                        self.params.hand_hi)
+        ctrl = self._start_ctrl[start]
         e = (ctrl - k.hand_q).astype(jnp.float32)
-        history = jnp.zeros((c.history_len, TOKEN_SIZE), jnp.float32).at[-1, :51].set(e)
+        token = self._token(e, jnp.zeros(NUM_DOFS, jnp.float32), k)
+        history = jnp.zeros((c.history_len, token.shape[0]), jnp.float32).at[-1].set(token)
         d = jnp.linalg.norm(k.handle_pos - k.palm).astype(jnp.float32)
         K1 = c.aux_window + 1
         info = {
@@ -174,8 +230,11 @@ class PullTask:
             "armed": d <= c.d_detach, "q_prev": k.obj_q.astype(jnp.float32), "ctrl": ctrl,
             "d_ring": jnp.full((K1,), d), "q_ring": jnp.full((K1,), k.obj_q, jnp.float32),
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
+            # reward-stage rings of 2K+1 and the ARAM / Reconfig state (facts §5); lambda is set by the trainer
+            "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
+            "stall": jnp.int32(0), "cooldown": jnp.int32(0), "aram_lambda": jnp.float32(0.0),
         }
-        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info))
+        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k))
         zero = jnp.float32(0.0)
         metrics = {m: zero for m in METRICS}
         metrics["q"] = k.obj_q.astype(jnp.float32)
@@ -219,22 +278,35 @@ class PullTask:
         truncated = (step >= c.episode_length) & ~terminated
         terms = reward_terms(c.reward, a, d, q - info["q_prev"], success.astype(jnp.float32),
                              detach.astype(jnp.float32))
+        ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
+        d_long, q_long = ring(info["d_long"], d), ring(info["q_long"], q)
+        stall, cooldown = info["stall"], info["cooldown"]
+        delta, K = p.q_goal - p.q_start, c.aux_window
+        if c.reward.aram is not None:
+            terms["aram"], stall = aram_penalty(c.reward.aram, info["aram_lambda"], stall, d, a,
+                                                q - q_long[-1 - K], delta, self.scene.ids.target_is_revolute)
+        if c.reward.reconfig is not None:
+            prev_a = state.obs.history[-1, NUM_DOFS:2 * NUM_DOFS]
+            terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, prev_a,
+                                                         k.hand_qd, delta, K)
         reward = jnp.where(finite, sum(terms.values()), 0.0).astype(jnp.float32)
 
         e = (ctrl - k.hand_q).astype(jnp.float32)
-        token = jnp.concatenate([e, a])
+        token = self._token(e, a, k)
         history = jnp.concatenate([state.obs.history[1:], token[None]], axis=0)
-        ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         ep_return = info["episode_return"] + reward
         new_info = {**info, "step": step, "armed": info["armed"] | (d <= c.d_detach), "q_prev": q, "ctrl": ctrl,
                     "d_ring": ring(info["d_ring"], d), "q_ring": ring(info["q_ring"], q),
-                    "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)), "episode_return": ep_return}
-        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(new_info))
+                    "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)), "episode_return": ep_return,
+                    "d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
+        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(new_info),
+                  privileged=self._privileged(new_info, k))
         done = terminated | truncated
         metrics = {
             "success": success.astype(jnp.float32), "progress": self.progress(q), "detach": detach.astype(jnp.float32),
             "truncated": truncated.astype(jnp.float32), "action_abs_max": jnp.max(jnp.abs(a)),
-            "action_l2": jnp.linalg.norm(a), "palm_dist": d.astype(jnp.float32), "reward": reward,
+            "active_abs_max": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)), "action_l2": jnp.linalg.norm(a),
+            "palm_dist": d.astype(jnp.float32), "reward": reward,
             "nonfinite": (~finite).astype(jnp.float32), "episode_return": ep_return,
             "episode_length": step.astype(jnp.float32), "q": q,
         }
@@ -247,9 +319,10 @@ class PullTask:
         fresh = self._reset(sub2, damp, fric, info["fixed_damping"])
         new = new.replace(info={**new.info, "rng": key})
         pick = lambda x, y: jnp.where(done, x, y)  # noqa: E731
+        keep = {"rng": key, "aram_lambda": info["aram_lambda"]}  # lambda_ARAM survives resets (facts §4)
         return new.replace(physics=jax.tree.map(pick, fresh.physics, new.physics),
                            obs=jax.tree.map(pick, fresh.obs, new.obs),
-                           info=jax.tree.map(pick, {**fresh.info, "rng": key}, new.info))
+                           info=jax.tree.map(pick, {**fresh.info, **keep}, new.info))
 
 
 def make_batched(task: PullTask):

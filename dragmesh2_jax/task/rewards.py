@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from dragmesh2_jax.task.config import RewardConfig
+from dragmesh2_jax.task.config import AramConfig, ReconfigConfig, RewardConfig
 
 
 def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp.ndarray, success: jnp.ndarray,
@@ -21,3 +21,27 @@ def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp
         "bound": -cfg.w_bound * jnp.mean(jnp.maximum(jnp.abs(action) - cfg.a_sat, 0.0) ** 2),
         "contact": -cfg.w_contact * jnp.maximum(d - cfg.d_safe, 0.0) ** 2,
     }
+
+
+def aram_penalty(cfg: AramConfig, lam, stall, d, action, q_resp, delta, revolute: bool):
+    """ARAM-lite (facts §5): (r_aram, new stall count). ``q_resp`` = q_t - q_{t-K}; ``delta`` = q_goal - q_start."""
+    normalized = jnp.abs(q_resp) / jnp.maximum(delta, 1e-6) < cfg.frac
+    raw = jnp.abs(q_resp) < cfg.raw_eps
+    low = {"raw": raw, "normalized": normalized, "joint_aware": raw if revolute else normalized}[cfg.response]
+    stall = jnp.where(low, stall + 1, 0)
+    gate = (d < cfg.d_contact) & (jnp.linalg.norm(action) > cfg.action_norm) & (stall >= cfg.stall_steps)
+    return -lam * gate * jnp.mean(action**2), stall
+
+
+def reconfig_bonus(cfg: ReconfigConfig, cooldown, d_ring, q_ring, action, prev_action, hand_qd, delta, K: int):
+    """Reconfig (facts §5): (r_reconfig, new cooldown). Rings hold the last 2K+1 values of d and q, newest last."""
+    d, q_resp, prev_resp = d_ring[-1], q_ring[-1] - q_ring[-1 - K], q_ring[-1 - K] - q_ring[0]
+    contact = jnp.maximum(0.0, d_ring[-1 - K] - d)
+    response = jnp.maximum(0.0, q_resp - prev_resp)
+    slip = jnp.maximum(0.0, d_ring[: K + 1].max() - d_ring[-1 - K:].max())
+    gate = ((d < cfg.d_contact) & (jnp.linalg.norm(action) > cfg.action_norm)
+            & (jnp.abs(q_resp / jnp.maximum(delta, 1e-6)) < cfg.stall_frac) & (cooldown == 0)
+            & (jnp.linalg.norm(action - prev_action) < cfg.max_action_change)
+            & (jnp.linalg.norm(hand_qd) < cfg.max_hand_speed))
+    bonus = gate * (cfg.w_contact * contact + cfg.w_response * response + cfg.w_slip * slip)
+    return bonus, jnp.where(gate, cfg.cooldown, jnp.maximum(cooldown - 1, 0))

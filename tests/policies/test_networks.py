@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from dragmesh2_jax.policies.gla import GatedLinearAttention, gla_recurrent
+from dragmesh2_jax.policies.gla import GatedLinearAttention, gla_last, gla_recurrent
 from dragmesh2_jax.policies.methods import METHODS, get_method
 from dragmesh2_jax.policies.networks import ENCODERS, ActorCritic
 
@@ -36,6 +36,20 @@ def test_gla_recurrence_matches_numpy():
     assert S.shape == (H, dk, dv)
 
 
+def test_gla_closed_form_last_token_equals_the_recurrence():
+    """The layer computes only o_T, in closed form: it equals the recurrence's last output (batched)."""
+    rng = np.random.default_rng(1)
+    B, T, H, dk, dv = 3, 16, 4, 16, 32
+    q, k = rng.normal(size=(B, T, H, dk)), rng.normal(size=(B, T, H, dk))
+    v = rng.normal(size=(B, T, H, dv))
+    g = np.log(1 / (1 + np.exp(-rng.normal(size=(B, T, H, dk))))) / 16  # log-sigmoid / 16, as the layer
+    f = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
+    o_rec, _ = gla_recurrent(f(q), f(k), f(v), f(g))
+    o_last = gla_last(f(q[:, -1]), f(k), f(v), f(g))
+    np.testing.assert_allclose(np.asarray(o_last), np.asarray(o_rec[:, -1]), rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(np.asarray(o_last[0]), gla_numpy(q[0], k[0], v[0], g[0])[-1], rtol=2e-4, atol=2e-4)
+
+
 def test_gla_layer_dimensions_follow_the_reference():
     layer = GatedLinearAttention()
     x = jnp.ones((2, 16, 128))
@@ -43,22 +57,45 @@ def test_gla_layer_dimensions_follow_the_reference():
     assert params["q_proj"]["kernel"].shape == (128, 64) and params["v_proj"]["kernel"].shape == (128, 128)
     assert params["gk_down"]["kernel"].shape == (128, 16) and params["gk_up"]["kernel"].shape == (16, 64)
     assert params["g_norm_scale"].shape == (32,)
-    assert layer.apply({"params": params}, x).shape == (2, 16, 128)
+    assert layer.apply({"params": params}, x).shape == (2, 128)  # the last token only
 
 
 @pytest.mark.parametrize("encoder", ENCODERS)
 def test_every_encoder_builds_and_runs(encoder):
     net = ActorCritic(encoder=encoder)
-    s, h = jnp.ones((3, 120)), jnp.ones((3, 16, 102))
-    params = net.init(jax.random.PRNGKey(0), s, h, method=ActorCritic.init_all)
-    mu, log_std, v, z = net.apply(params, s, h)
+    s, h, p = jnp.ones((3, 120)), jnp.ones((3, 16, 102)), jnp.ones((3, 24))
+    params = net.init(jax.random.PRNGKey(0), s, h, p, method=ActorCritic.init_all)
+    mu, log_std, v, z = net.apply(params, s, h, p)
     assert mu.shape == (3, 51) and v.shape == (3,)
     np.testing.assert_allclose(log_std, -2.0)  # state-independent log-std, init -2.0
     assert (z is None) == (encoder == "none")
 
 
+def test_privileged_critic_sees_what_the_actor_never_does():
+    """Asymmetric critic: the value depends on the privileged block, the action mean does not; the shared
+    critic (the paper's) ignores it."""
+    s, h = jnp.ones((2, 120)), jnp.ones((2, 16, 102))
+    p0, p1 = jnp.zeros((2, 24)), jnp.full((2, 24), 3.0)
+    for critic, value_moves in (("privileged", True), ("shared", False)):
+        net = ActorCritic(encoder="gla", critic=critic)
+        params = net.init(jax.random.PRNGKey(0), s, h, p0, method=ActorCritic.init_all)
+        mu0, _, v0, _ = net.apply(params, s, h, p0)
+        mu1, _, v1, _ = net.apply(params, s, h, p1)
+        np.testing.assert_array_equal(mu0, mu1)
+        assert bool(jnp.any(v0 != v1)) == value_moves
+        mu_actor, _ = net.apply(params, s, h, method=ActorCritic.actor)
+        np.testing.assert_allclose(mu_actor, mu0, rtol=1e-6)
+
+
 def test_methods_are_presets():
-    assert set(METHODS) == {"pica", "state_only", "flat_history", "gru", "transformer", "gla_only", "pica_flat"}
+    assert {"pica", "state_only", "flat_history", "gru", "transformer", "gla_only", "pica_flat"} <= set(METHODS)
+    from dragmesh2_jax.policies.methods import task_overrides
+
+    load = get_method("pica_load")
+    assert load.encoder == "gla" and load.physical_signals and load.critic == "privileged"
+    over = task_overrides(load)
+    assert over["force_obs"] and over["damping_range"] == (1.0, 4.0) and over["reset_noise"] is not None
+    assert task_overrides(get_method("pica")) == {}  # the paper's PICA changes nothing in the task
     assert get_method("pica").encoder == "gla" and get_method("pica").physical_signals
     assert get_method("gla_only").encoder == "gla" and not get_method("gla_only").physical_signals
     assert get_method("pica_flat").encoder == "flat" and get_method("pica_flat").physical_signals
@@ -67,10 +104,11 @@ def test_methods_are_presets():
 def test_aux_loss_gradients_reach_only_the_temporal_branch_and_aux_head():
     net = ActorCritic(encoder="gla")
     s, h = jax.random.normal(jax.random.PRNGKey(1), (4, 120)), jax.random.normal(jax.random.PRNGKey(2), (4, 16, 102))
-    params = net.init(jax.random.PRNGKey(0), s, h, method=ActorCritic.init_all)
+    priv = jnp.zeros((4, 24))
+    params = net.init(jax.random.PRNGKey(0), s, h, priv, method=ActorCritic.init_all)
 
     def aux_loss(p):
-        _, _, _, z = net.apply(p, s, h)
+        _, _, _, z = net.apply(p, s, h, priv)
         return jnp.sum(net.apply(p, z, method=ActorCritic.aux) ** 2)
 
     g = jax.grad(aux_loss)(params)["params"]
@@ -82,18 +120,19 @@ def test_aux_loss_gradients_reach_only_the_temporal_branch_and_aux_head():
 
 
 def test_aux_targets_are_not_a_network_input():
-    """The network's only inputs are obs.state and obs.history; the aux block cannot reach it."""
+    """The network's only inputs are obs.state, obs.history and obs.privileged; the aux block cannot reach it."""
     import inspect
 
     from dragmesh2_jax.ppo.train import Trainer
     from dragmesh2_jax.task.env import Obs
 
-    assert list(inspect.signature(ActorCritic.__call__).parameters) == ["self", "state", "history"]
+    assert list(inspect.signature(ActorCritic.__call__).parameters) == ["self", "state", "history", "privileged"]
     src = inspect.getsource(Trainer.inputs)
     assert "obs.aux" not in src
-    obs = Obs(state=jnp.ones((2, 120)), history=jnp.ones((2, 16, 102)), aux=jnp.zeros((2, 4)))
+    obs = Obs(state=jnp.ones((2, 120)), history=jnp.ones((2, 16, 102)), aux=jnp.zeros((2, 4)),
+              privileged=jnp.zeros((2, 24)))
     net = ActorCritic(encoder="gla")
-    params = net.init(jax.random.PRNGKey(0), obs.state, obs.history, method=ActorCritic.init_all)
+    params = net.init(jax.random.PRNGKey(0), obs.state, obs.history, obs.privileged, method=ActorCritic.init_all)
     trainer = SimpleNamespace(net=net, config=SimpleNamespace(normalize_obs=False))
     trainer.inputs = lambda ts, o: Trainer.inputs(trainer, ts, o)
     out1 = Trainer.apply(trainer, params, None, obs)

@@ -11,6 +11,7 @@ from dragmesh2_jax.policies.methods import get_method
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.runner import load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.train import Trainer, gae
+from dragmesh2_jax.task.config import RewardConfig
 from dragmesh2_jax.task.env import Obs, State
 
 
@@ -21,17 +22,17 @@ class PointMass:
     Same State/Obs structure as the pulling task, so the unchanged Trainer drives it."""
 
     action_size = 2
-    config = SimpleNamespace(episode_length=30)
+    config = SimpleNamespace(episode_length=30, reward=RewardConfig())
 
     def _obs(self, x):
-        return Obs(state=x, history=jnp.zeros((2, 4)), aux=jnp.zeros(1))
+        return Obs(state=x, history=jnp.zeros((2, 4)), aux=jnp.zeros(1), privileged=jnp.zeros(1))
 
     def reset(self, key, damping_scale=None):
         key, k = jax.random.split(key)
         x = jax.random.uniform(k, (2,), minval=-1, maxval=1)
         zero = jnp.float32(0)
-        m = {k: zero for k in ("success", "progress", "detach", "episode_return", "action_abs_max", "action_l2",
-                               "nonfinite")}
+        m = {k: zero for k in ("success", "progress", "detach", "episode_return", "action_abs_max",
+                               "active_abs_max", "action_l2", "nonfinite")}
         return State(physics=x, obs=self._obs(x), reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
                      truncated=jnp.bool_(False), final_obs=self._obs(x), metrics=m,
                      info={"rng": key, "t": jnp.int32(0), "ret": zero})
@@ -45,6 +46,7 @@ class PointMass:
         ret = s.info["ret"] + r
         m = {"success": (jnp.linalg.norm(x) < 0.1).astype(jnp.float32), "progress": jnp.float32(0),
              "detach": jnp.float32(0), "episode_return": ret, "action_abs_max": jnp.abs(a).max(),
+             "active_abs_max": jnp.abs(a).max(),
              "action_l2": jnp.linalg.norm(a), "nonfinite": jnp.float32(0)}
         key, k = jax.random.split(s.info["rng"])
         fresh = self.reset(k)
@@ -81,7 +83,7 @@ def test_gae_truncation_and_termination():
 @pytest.fixture(scope="module")
 def small_trainer():
     from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.cli import make_trainer
+    from dragmesh2_jax.runs import make_trainer
 
     return make_trainer(str(default_object()), None, "pica", "mujoco", "jax", num_envs=4, rollout_len=8, epochs=3)
 
@@ -123,11 +125,11 @@ def test_bad_ppo_config():
 
 def test_policy_trained_on_one_backend_loads_on_the_other(small_trainer, tmp_path):
     from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.cli import load_run
     from dragmesh2_jax.ppo.runner import train
+    from dragmesh2_jax.runs import load_run
 
     ts, _ = train(small_trainer, tmp_path / "run", str(default_object()), progress=False)
-    trainer, loaded, _ = load_run(str(tmp_path / "run" / "checkpoints" / "final.npz"), backend="mjx")
+    trainer, loaded, _, _ = load_run(str(tmp_path / "run" / "checkpoints" / "final.npz"), backend="mjx")
     assert trainer.task.backend.name == "mjx"
     for x, y in zip(jax.tree.leaves(ts.params), jax.tree.leaves(loaded.params), strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))

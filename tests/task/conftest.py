@@ -2,21 +2,12 @@ import pytest
 
 
 @pytest.fixture(scope="session")
-def drawer_task():
-    """The packaged drawer with a generated trajectory, on the C backend (compiles in ~1 s)."""
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.cli import load_task
-
-    return load_task(str(default_object()), None, backend="mujoco")
-
-
-@pytest.fixture(scope="session")
 def tracking_rollouts(gapartnet_dir, tmp_path_factory):
     """Tracking rollouts of a real object at x1/x2/x4 on both backends, computed once per object per session
     (one MJX compile each): ``tracking_rollouts(oid) -> {backend: (rows, traces)}``."""
     from dragmesh2_jax.assets.gapartnet import load_gapartnet
     from dragmesh2_jax.baselines.tracking import track
-    from dragmesh2_jax.cli import load_task
+    from dragmesh2_jax.runs import load_task
     from dragmesh2_jax.trajectory.generator import generate
     from dragmesh2_jax.trajectory.schema import write_trajectory
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.baselines.tracking import track
-from dragmesh2_jax.cli import load_task
+from dragmesh2_jax.runs import load_task
 from tests.conftest import REAL_OBJECTS
 
 
