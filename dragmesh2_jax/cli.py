@@ -372,7 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
     ptr = sub.add_parser("train", help="train a policy with PPO")
     ptr.add_argument("--method", default="pica", help="pica | state_only | flat_history | gru | transformer | "
                                                        "gla_only | pica_flat | pica_force | pica_priv | pica_d14 | "
-                                                       "pica_load")
+                                                       "pica_load | pica_grip")
     ptr.add_argument("--object", help="object folder")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
     ptr.add_argument("--out", required=True, help="run folder")

@@ -7,12 +7,14 @@ physical signals; the two ablations remove one PICA component each.
 Beyond the paper (its §5 asks for a richer contact interface), each a preset ablated against ``pica``:
 ``pica_force`` (contact-load sensors in s_t and in the history tokens), ``pica_priv`` (asymmetric critic that
 sees damping and contact load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), and
-``pica_load``, the recipe that combines them and trains from perturbed starts. The task itself (action
+``pica_load``, which combines them and trains from perturbed starts, and ``pica_grip``: contact-load observation,
+privileged critic and a load-budget reward, with the paper's damping range. The task itself (action
 interface, success threshold, damping multipliers, episode length) is the paper's for every method.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from dragmesh2_jax.errors import DragMeshError
@@ -28,6 +30,7 @@ class Method:
     force_obs: bool = False  # contact-load sensors in s_t and in every history token
     damping_range: tuple[float, float] | None = None  # training range; None: the paper's [1, 2]
     reset_noise: bool = False  # train from perturbed expert grasps (TaskConfig.reset_noise)
+    w_load: float = 0.0  # the load-budget reward (RewardConfig.w_load)
 
 
 METHODS = {m.name: m for m in (
@@ -47,6 +50,9 @@ METHODS = {m.name: m for m in (
     Method("pica_load", "gla", True, "load-aware PICA: contact-load observation, privileged critic, damping "
            "[1, 4], perturbed starts", critic="privileged", force_obs=True, damping_range=(1.0, 4.0),
            reset_noise=True),
+    Method("pica_grip", "gla", True, "grip-aware PICA: contact-load observation, privileged critic and a load "
+           "budget reward (the arm's pull beyond what the grasp holds is penalised)", critic="privileged",
+           force_obs=True, w_load=5.0),
 )}
 
 
@@ -70,4 +76,6 @@ def task_overrides(method: Method) -> dict:
         out["force_obs"] = True
     if method.reset_noise:
         out["reset_noise"] = ResetNoise()
+    if method.w_load:
+        out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), w_load=method.w_load)
     return out

@@ -70,6 +70,10 @@ class RewardConfig:
     a_sat: float = 0.90
     w_contact: float = 0.5  # PICA: max(d - d_safe, 0)^2
     d_safe: float = 0.08  # m
+    # Beyond the paper: a load budget. Scripted pulls (RESULTS.md, failure analysis) show the grip fails once the
+    # arm's pulling load passes ~100-120 N, whatever the speed or damping: -w_load max(0, |F| - f_hold) / f_hold.
+    w_load: float = 0.0  # off in the paper's methods
+    f_hold: float = 100.0  # N, wrist force the grasp holds (measured on the tuning door)
     aram: AramConfig | None = None  # diagnostic fine-tunes (paper App. B.5): off in the main recipe
     reconfig: ReconfigConfig | None = None
 

@@ -277,7 +277,7 @@ class PullTask:
         terminated = success | detach | ~finite
         truncated = (step >= c.episode_length) & ~terminated
         terms = reward_terms(c.reward, a, d, q - info["q_prev"], success.astype(jnp.float32),
-                             detach.astype(jnp.float32))
+                             detach.astype(jnp.float32), k.force[:3])
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         d_long, q_long = ring(info["d_long"], d), ring(info["q_long"], q)
         stall, cooldown = info["stall"], info["cooldown"]

@@ -8,10 +8,11 @@ from dragmesh2_jax.task.config import AramConfig, ReconfigConfig, RewardConfig
 
 
 def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp.ndarray, success: jnp.ndarray,
-                 detach: jnp.ndarray) -> dict[str, jnp.ndarray]:
+                 detach: jnp.ndarray, wrist_force: jnp.ndarray) -> dict[str, jnp.ndarray]:
     """Every term of r_t. ``action`` (51,) clipped to [-1, 1]; ``d`` palm-handle distance (m); ``dq`` target-joint
-    increment q_t - q_{t-1}; ``success``/``detach`` this step's one-shot events."""
+    increment q_t - q_{t-1}; ``success``/``detach`` this step's one-shot events; ``wrist_force`` (3,) N."""
     return {
+        "load": -cfg.w_load * jnp.maximum(jnp.linalg.norm(wrist_force) - cfg.f_hold, 0.0) / cfg.f_hold,
         "task": cfg.w_task * dq,
         "dist": -cfg.w_dist * d + cfg.w_near * jnp.exp(-cfg.kappa * d),
         "act": -cfg.w_act * jnp.mean(action**2),

@@ -64,3 +64,19 @@ def test_contact_sensors_agree_between_backends():
     ts = trainer.init()  # the preset's network and normalisers on MJX observations
     a = trainer.make_policy(deterministic=True)(trainer.policy_params(ts), ts.env_state.obs, jax.random.PRNGKey(0))
     assert a.shape == (2, 51) and np.isfinite(np.asarray(a)).all()
+
+
+def test_load_budget_reward_penalises_only_the_pull_beyond_what_the_grasp_holds():
+    import dataclasses
+
+    from dragmesh2_jax.policies.methods import get_method, task_overrides
+    from dragmesh2_jax.task.config import RewardConfig
+    from dragmesh2_jax.task.rewards import reward_terms
+
+    cfg = task_overrides(get_method("pica_grip"))["reward"]
+    assert cfg.w_load > 0 and dataclasses.replace(cfg, w_load=0.0) == RewardConfig()  # only the load term differs
+    args = (jnp.zeros(51), jnp.float32(0.05), jnp.float32(0.0), jnp.float32(0.0), jnp.float32(0.0))
+    load = lambda f: float(reward_terms(cfg, *args, jnp.asarray([f, 0.0, 0.0]))["load"])  # noqa: E731
+    assert load(0.5 * cfg.f_hold) == 0.0 and load(cfg.f_hold) == 0.0
+    assert load(2 * cfg.f_hold) == pytest.approx(-cfg.w_load) and load(3 * cfg.f_hold) == pytest.approx(-2 * cfg.w_load)
+    assert float(reward_terms(RewardConfig(), *args, jnp.asarray([1e3, 0.0, 0.0]))["load"]) == 0.0  # off in the paper
