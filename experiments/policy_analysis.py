@@ -59,7 +59,8 @@ def analyse(run: str, dampings: list[float], episodes: int, backend: str) -> lis
         sat = {g: float((np.abs(a[:, sl][..., idx]).max(-1) > CLIP_LEVEL)[lv].mean()) for g, idx in groups.items()}
         rows.append({
             "run": str(run), "checkpoint": ck.name, "object": task.scene.obj.object_id, "damping": d,
-            "success_rate": float(success[:, sl].max(0).mean()), "detach_rate": float(detach[:, sl].max(0).mean()),
+            "success_rate": float((success[:, sl] * lv).max(0).mean()),
+            "detach_rate": float((detach[:, sl] * lv).max(0).mean()),
             "steps_mean": float(lv.sum(0).mean()), **{f"sat_{g}": v for g, v in sat.items()},
             "palm_speed_mean_m_s": float(speed[:, sl][lv].mean()),
             "wrist_force_mean_N": float(wrist[:, sl][lv].mean()), "wrist_force_peak_N": float(wrist[:, sl][lv].max()),

@@ -61,7 +61,8 @@ def test_contact_sensors_agree_between_backends():
     tc, tj = c[..., 6:].sum(-1), j[..., 6:].sum(-1)
     assert np.all(np.abs(tc - tj) <= 0.2 * tc + 1.0)
     trainer = make_trainer(OBJ, None, "pica_load", "mjx", num_envs=2, rollout_len=2, epochs=1)
-    ts = trainer.init()  # the preset's network and normalisers on MJX observations
+    ts, m = trainer.epoch(trainer.init())  # force-aware observation + privileged critic, trained on MJX
+    assert np.isfinite(float(m["loss"])) and int(ts.epoch) == 1 and float(ts.privileged_stats.count) > 1
     a = trainer.make_policy(deterministic=True)(trainer.policy_params(ts), ts.env_state.obs, jax.random.PRNGKey(0))
     assert a.shape == (2, 51) and np.isfinite(np.asarray(a)).all()
 
