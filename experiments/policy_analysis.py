@@ -32,7 +32,7 @@ def analyse(run: str, dampings: list[float], episodes: int, backend: str) -> lis
     n = len(dampings) * episodes
     scales = jnp.asarray(np.repeat(dampings, episodes), jnp.float32)
     reset, step = jax.vmap(task.reset), jax.vmap(task.step)
-    T = 80
+    T = task.config.episode_length
 
     @jax.jit
     def roll(params, key):
