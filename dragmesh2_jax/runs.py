@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
@@ -13,8 +14,6 @@ from dragmesh2_jax.task.config import EVAL_RESET_NOISE, ResetNoise
 
 def parse_floats(text: str, what: str, minimum: float | None = None) -> list[float]:
     """Comma-separated finite numbers (``"1,2,4"``), each >= ``minimum`` when given."""
-    import math
-
     try:
         vals = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:

@@ -45,9 +45,9 @@ def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, floa
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def rollout_cells(task: PullTask, policy: Policy, params: Any, dampings: list[float], episodes: int,
-                  seed: int = 42) -> list[dict]:
-    """One rollout of ``len(dampings) * episodes`` worlds under ``policy``; per-cell metrics (no mode)."""
+def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes: int):
+    """``(params, seed) -> per-cell metrics``: one jitted rollout of ``len(dampings) * episodes`` worlds under
+    ``policy``, compiled once and reusable (the in-training robustness check calls it every few epochs)."""
     n = len(dampings) * episodes
     scales = jnp.asarray(np.repeat(dampings, episodes), jnp.float32)
     T = task.config.episode_length
@@ -80,7 +80,19 @@ def rollout_cells(task: PullTask, policy: Policy, params: Any, dampings: list[fl
         _, _, _, acc, _ = jax.lax.while_loop(lambda c: (c[0] < T) & c[2].any(), body, init)
         return acc
 
-    acc = jax.device_get(run(params, jax.random.PRNGKey(seed)))
+    def cells(params: Any, seed: int = 42) -> list[dict]:
+        return _cell_records(jax.device_get(run(params, jax.random.PRNGKey(seed))), dampings, episodes)
+
+    return cells
+
+
+def rollout_cells(task: PullTask, policy: Policy, params: Any, dampings: list[float], episodes: int,
+                  seed: int = 42) -> list[dict]:
+    """One rollout of ``len(dampings) * episodes`` worlds under ``policy``; per-cell metrics (no mode)."""
+    return make_rollout(task, policy, dampings, episodes)(params, seed)
+
+
+def _cell_records(acc: dict, dampings: list[float], episodes: int) -> list[dict]:
     records = []
     for i, d in enumerate(dampings):
         sl = slice(i * episodes, (i + 1) * episodes)

@@ -105,17 +105,16 @@ def write_run_meta(run_dir: Path, trainer: Trainer, object_dir: str, extra: dict
 def robust_evaluator(trainer: Trainer, selection: RobustSelection):
     """``ts -> row``: det success per damping from the selection's perturbed starts (its own bank seed, not the
     final evaluation's), in one parallel rollout."""
-    from dragmesh2_jax.evaluation.evaluate import rollout_cells
+    from dragmesh2_jax.evaluation.evaluate import make_rollout
     from dragmesh2_jax.runs import eval_task
     from dragmesh2_jax.task.config import ResetNoise
 
     task = eval_task(trainer.task, noise=ResetNoise(seed=selection.seed))
-    policy = trainer.make_policy(deterministic=True)
-    dampings = list(selection.dampings)
+    rollout = make_rollout(task, trainer.make_policy(deterministic=True), list(selection.dampings),
+                           selection.episodes)  # compiled once, run every ``selection.every`` epochs
 
     def evaluate(ts: TrainState) -> dict:
-        cells = rollout_cells(task, policy, trainer.policy_params(ts), dampings, selection.episodes,
-                              seed=selection.seed)
+        cells = rollout(trainer.policy_params(ts), seed=selection.seed)
         s = [r["success_rate"] for r in cells]
         return {"epoch": int(ts.epoch), "mean_success": float(np.mean(s)), "worst_success": float(np.min(s)),
                 "clip099_active": float(np.mean([r["clip099_active"] for r in cells])),

@@ -124,12 +124,12 @@ def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None) -> li
     return starts
 
 
-def make_backend(scene: Scene, traj: Trajectory, config: TaskConfig) -> Backend:
+def make_backend(scene: Scene, config: TaskConfig, starts: list[Start]) -> Backend:
     substeps = config.control_dt / scene.config.timestep
     if abs(substeps - round(substeps)) > 1e-6 or round(substeps) < 1:
         raise DragMeshError(f"control_dt {config.control_dt} is not a whole number of timesteps "
                             f"{scene.config.timestep}")
-    args = (scene, int(round(substeps)), reset_starts(scene, traj, config.reset_noise), config.settle_substeps)
+    args = (scene, int(round(substeps)), starts, config.settle_substeps)
     if config.resolved_backend() == "mjx":
         from dragmesh2_jax.physics.mjx_backend import MjxBackend
 
@@ -145,12 +145,12 @@ class PullTask:
     def __init__(self, scene: Scene, traj: Trajectory, config: TaskConfig = TaskConfig()):
         check_trajectory_matches(scene, traj)
         self.scene, self.traj, self.config = scene, traj, config
-        self.backend = make_backend(scene, traj, config)
+        starts = reset_starts(scene, traj, config.reset_noise)
+        self.backend = make_backend(scene, config, starts)
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
         self.params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
                                  q_done=jnp.float32(traj.q_done), damping=jnp.float32(scene.config.damping),
                                  hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32))
-        starts = reset_starts(scene, traj, config.reset_noise)
         self._start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), self.params.hand_lo,
                                     self.params.hand_hi)  # the PD target each start was settled with
         self.num_starts = len(starts)
