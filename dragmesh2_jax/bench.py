@@ -1,4 +1,6 @@
-"""``dragmesh2 bench env``: physics throughput of the pulling task per backend and batch size."""
+"""``dragmesh2 bench env``: physics throughput of the pulling task per backend and batch size;
+``dragmesh2 bench train``: PPO epochs per second, compile time and the paper's per-object budget, one run or a
+seed-vmapped column of runs as one program."""
 
 from __future__ import annotations
 
@@ -27,10 +29,6 @@ def machine() -> dict:
 
 def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     """Time ``steps`` control steps of ``num_envs`` worlds with random actions (compile timed separately)."""
-    if task.backend.name == "mjx":
-        from dragmesh2_jax.physics.mjx_backend import warn_cpu_batch
-
-        warn_cpu_batch(num_envs)
     reset, step = make_batched(task)
     keys = jax.random.split(jax.random.PRNGKey(seed), num_envs)
     actions = jnp.asarray(np.random.default_rng(seed).uniform(-1, 1, (steps, num_envs, 51)).astype(np.float32))
@@ -52,3 +50,37 @@ def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     return {"backend": task.backend.name, "num_envs": num_envs, "steps": steps, "compile_s": round(compile_s, 3),
             "control_steps_per_s": round(ctrl, 1), "physics_steps_per_s": round(ctrl * task.substeps, 1),
             "wall_s": round(dt, 4), "object": task.scene.obj.object_id, **machine()}
+
+
+PAPER_EPOCHS = 150  # the paper's per-object budget: 150 epochs x 64 envs x 32 steps
+
+
+def bench_train(trainer, epochs: int, runs: int = 1) -> dict:
+    """Time one compiling epoch and ``epochs`` more of ``trainer`` (``runs`` > 1: that many seeds as one
+    vmapped program, sharded over the devices when they divide it). A second trainer of the same signature
+    (another object of the same structure) finds the program compiled: its first epoch shows it."""
+    from dragmesh2_jax.ppo.runner import run_mesh
+
+    if runs > 1:
+        mesh = run_mesh(runs)
+        ts = trainer.init_runs(list(range(runs)))
+        epoch = lambda ts: trainer.epoch_runs(ts, mesh)  # noqa: E731
+    else:
+        ts, epoch = trainer.init(), trainer.epoch
+    jax.block_until_ready(ts)
+    t0 = time.perf_counter()
+    ts, _ = epoch(ts)
+    jax.block_until_ready(ts)
+    first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for _ in range(epochs):
+        ts, _ = epoch(ts)
+    jax.block_until_ready(ts)
+    per = (time.perf_counter() - t0) / epochs
+    c = trainer.config
+    steps = runs * c.num_envs * c.rollout_len
+    return {"method": trainer.method.name, "backend": trainer.task.backend.name, "num_envs": c.num_envs,
+            "runs": runs, "object": trainer.task.scene.obj.object_id, "first_epoch_s": round(first, 2),
+            "s_per_epoch": round(per, 4), "env_steps_per_s": round(steps / per, 1),
+            "physics_steps_per_s": round(steps * trainer.task.substeps / per, 1),
+            "budget_s": round(first + (PAPER_EPOCHS - 1) * per, 1), **machine()}

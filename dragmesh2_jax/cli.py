@@ -150,32 +150,63 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_bench_train(args) -> int:
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.bench import bench_train
+
+    rows = []
+    for obj in (args.object or str(default_object())).split(","):
+        for n in parse_floats(args.num_envs, "--num-envs", minimum=1):
+            for runs in parse_floats(args.runs, "--runs", minimum=1):
+                trainer = make_trainer(obj, None, args.method, args.backend, args.impl, num_envs=int(n))
+                rows.append(r := bench_train(trainer, args.epochs, int(runs)))
+                print(f"{r['method']} {r['backend']:7s} {r['object']} envs {r['num_envs']:5d} x {r['runs']} runs  "
+                      f"first epoch {r['first_epoch_s']:7.2f} s  {r['s_per_epoch']:.3f} s/epoch  "
+                      f"env {r['env_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s  "
+                      f"150 epochs ~{r['budget_s']:.0f} s", file=sys.stderr)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    return 0
+
+
 def _add_backend_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
     p.add_argument("--impl", default="jax", help="MJX implementation: jax | warp")
 
 
 def cmd_train(args) -> int:
-    from dragmesh2_jax.ppo.runner import RobustSelection, train
+    from dragmesh2_jax.ppo.runner import RobustSelection, train, train_seeds
 
     if args.robust_every < 0:
         raise DragMeshError("--robust-every must be >= 0")
+    seeds = None
+    if args.seeds:
+        seeds = parse_floats(args.seeds, "--seeds", minimum=0)
+        if any(s != int(s) for s in seeds) or len(set(seeds)) < len(seeds):
+            raise DragMeshError(f"--seeds: distinct whole numbers expected, got {args.seeds!r}")
+        seeds = [int(s) for s in seeds]
+    record = Path(args.out) / (f"seed_{seeds[0]}" if seeds else "")
     if args.resume:
-        meta = run_meta(Path(args.out))
+        meta = run_meta(record)
         ppo = {**ppo_from_meta(meta), **({"epochs": args.epochs} if args.epochs else {})}
-        trainer = make_trainer(meta["object"], str(Path(args.out) / meta["trajectory"]), meta["method"],
+        trainer = make_trainer(meta["object"], str(record / meta["trajectory"]), meta["method"],
                                args.backend, args.impl, finetune=meta.get("finetune"), **ppo)
     else:
         trainer = make_trainer(args.object, args.trajectory, args.method, args.backend, args.impl,
                                epochs=args.epochs, num_envs=args.num_envs, seed=args.seed,
                                lr_schedule=args.lr_schedule)
-    _, rows = train(trainer, args.out, args.object or meta["object"], resume=args.resume,
-                    save_every=args.save_every, progress=not args.quiet,
-                    selection=RobustSelection(every=args.robust_every))
-    last = rows[-1] if rows else {}
-    print(f"{args.out}: {trainer.method.name} on {trainer.task.scene.obj.object_id} ({trainer.task.backend.name}), "
-          f"{last.get('epoch', 0)} epochs, training success {last.get('success', 0):.2f}, "
-          f"reward {last.get('reward', 0):.2f}, {last.get('seconds', 0):.0f} s")
+    kwargs = {"resume": args.resume, "save_every": args.save_every, "progress": not args.quiet,
+              "selection": RobustSelection(every=args.robust_every)}
+    object_dir = args.object or meta["object"]
+    if seeds:
+        _, runs = train_seeds(trainer, args.out, seeds, object_dir, **kwargs)
+    else:
+        runs = [train(trainer, args.out, object_dir, **kwargs)[1]]
+    for seed, rows in zip(seeds or [trainer.config.seed], runs, strict=True):
+        last = rows[-1] if rows else {}
+        print(f"{args.out}: {trainer.method.name} seed {seed} on {trainer.task.scene.obj.object_id} "
+              f"({trainer.task.backend.name}), {last.get('epoch', 0)} epochs, training success "
+              f"{last.get('success', 0):.2f}, reward {last.get('reward', 0):.2f}, {last.get('seconds', 0):.0f} s")
     return 0
 
 
@@ -367,7 +398,18 @@ def build_parser() -> argparse.ArgumentParser:
     pbenv.add_argument("--mjx-steps", type=int, help="control steps for the MJX backend (slow on a CPU)")
     pbenv.add_argument("--json", action="store_true")
     _add_backend_args(pbenv)
-    pbe.set_defaults(func=cmd_bench)
+    pbenv.set_defaults(func=cmd_bench)
+    pbtr = bsub.add_parser("train", help="PPO epochs/s, compile time and the paper's per-object budget; "
+                                         "--runs N: N seeds as one vmapped program")
+    pbtr.add_argument("--object", help="object folder(s), comma-separated (default: the packaged drawer); a second "
+                                       "object of the same structure reuses the compiled program")
+    pbtr.add_argument("--method", default="pica")
+    pbtr.add_argument("--num-envs", default="64")
+    pbtr.add_argument("--runs", default="1", help="seeds trained as one program (comma-separated list of counts)")
+    pbtr.add_argument("--epochs", type=int, default=3, help="timed epochs after the compiling one")
+    pbtr.add_argument("--json", action="store_true")
+    _add_backend_args(pbtr)
+    pbtr.set_defaults(func=cmd_bench_train)
 
     ptr = sub.add_parser("train", help="train a policy with PPO")
     ptr.add_argument("--method", default="pica", help="pica | state_only | flat_history | gru | transformer | "
@@ -379,6 +421,8 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--epochs", type=int)
     ptr.add_argument("--num-envs", type=int)
     ptr.add_argument("--seed", type=int)
+    ptr.add_argument("--seeds", help="several seeds as one program (e.g. 0,1,2), each in OUT/seed_N; sharded over "
+                                     "the devices when they divide the count")
     ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"])
     ptr.add_argument("--save-every", type=int, default=10)
     ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
@@ -427,6 +471,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if "mjx" in str(getattr(args, "backend", "")):  # before anything starts JAX (jaxlib < 0.11 CPU deadlock)
+        from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
+
+        avoid_lapack_deadlock()
     try:
         return int(args.func(args) or 0)
     except DragMeshError as e:

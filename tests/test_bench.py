@@ -1,6 +1,10 @@
 """The benchmark command reports the documented keys (speed itself is measured, never asserted)."""
 
 import json
+import subprocess
+import sys
+
+import pytest
 
 from dragmesh2_jax.cli import main
 
@@ -13,3 +17,27 @@ def test_bench_env_json(capsys):
         assert {"compile_s", "control_steps_per_s", "physics_steps_per_s", "backend", "cpu", "cores"} <= set(r)
         assert r["physics_steps_per_s"] == r["control_steps_per_s"] * 4 or abs(
             r["physics_steps_per_s"] - 4 * r["control_steps_per_s"]) < 1
+
+
+def test_bench_train_reports_compile_budget_and_a_seed_column():
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.bench import PAPER_EPOCHS, bench_train
+    from dragmesh2_jax.runs import make_trainer
+
+    trainer = make_trainer(str(default_object()), None, "pica", "mujoco", num_envs=2, rollout_len=4)
+    one, column = bench_train(trainer, epochs=1), bench_train(trainer, epochs=1, runs=2)
+    assert one["runs"] == 1 and column["runs"] == 2
+    for r in (one, column):
+        assert r["env_steps_per_s"] == pytest.approx(r["runs"] * 2 * 4 / r["s_per_epoch"], rel=1e-2)
+        assert r["budget_s"] == pytest.approx(r["first_epoch_s"] + (PAPER_EPOCHS - 1) * r["s_per_epoch"], abs=0.2)
+
+
+@pytest.mark.mjx
+def test_mjx_bench_runs_to_the_end_at_16_worlds_on_a_cpu():
+    """jaxlib 0.10's LAPACK deadlock (two batched Cholesky calls on a 2-thread pool) hung here before
+    ``avoid_lapack_deadlock``; a fresh process, as a user runs it."""
+    cmd = [sys.executable, "-m", "dragmesh2_jax.cli", "bench", "env", "--backend", "mjx", "--num-envs", "16",
+           "--steps", "2", "--json"]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert json.loads(out.stdout)[0]["num_envs"] == 16

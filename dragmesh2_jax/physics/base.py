@@ -1,12 +1,15 @@
 """The physics backend interface the task is written against (one world; the task ``vmap``s it).
 
-A backend owns an opaque per-world physics state (a pytree) and offers:
-  * ``reset_state(i)``  the i-th post-settle start state: the expert grasp, or one of a bank of perturbed
+The model is data, not a constant of the compiled program: a backend's ``data`` (a pytree: the MJX model or a
+handle to the C engine's host models, the bank of start states, the :class:`Layout` of the scene) is an argument
+of every function, so objects of the same model structure share one compiled program. A backend offers:
+  * ``reset_state(data, i)``  the i-th post-settle start state: the expert grasp, or one of a bank of perturbed
                         expert grasps (identical on every backend: each is computed once on the host with the
                         C engine, see :func:`settled_reset`);
-  * ``step(ps, ctrl, damping, friction)``  n substeps with hand PD targets ``ctrl`` (51,), the target joint's
-                        viscous damping (absolute) and a friction scale for object geoms;
-  * ``kinematics(ps)``  the few quantities the task reads: hand q/qd (51), target-joint q/qd, palm centre,
+  * ``step(data, ps, ctrl, fields)``  n substeps with hand PD targets ``ctrl`` (51,) and this world's values of
+                        any model fields (:data:`WorldFields`, e.g. ``dof_damping``, ``geom_friction``,
+                        ``body_mass``): the Playground ``(model, in_axes)`` pattern, on both engines;
+  * ``kinematics(data, ps)``  the few quantities the task reads: hand q/qd (51), target-joint q/qd, palm centre,
                         handle centre and handle axes (long, normal), world frame, and the contact-load sensors
                         (wrist force/torque, palm and phalanx normal forces). Positions and sensors are those
                         MuJoCo computed at the start of the last substep (as ``mj_step`` leaves them).
@@ -37,16 +40,47 @@ class Kinematics:
     force: jnp.ndarray  # (FORCE_SIZE,) wrist force (3, N) and torque (3, N m), palm + 15 phalanx touch (16, N)
 
 
+#: Per-world values of model fields, by ``MjModel`` field name, each of the field's full shape.
+WorldFields = dict[str, jnp.ndarray]
+
+
+@struct.dataclass
+class Layout:
+    """Where the task's quantities live in one object's compiled model: data, so that objects of the same
+    structure (whatever their indices) run through one program."""
+
+    hand_qpos: jnp.ndarray  # (51,) qpos addresses, action order
+    hand_dof: jnp.ndarray  # (51,) dof addresses
+    hand_actuators: jnp.ndarray  # (51,)
+    target_qpos: jnp.ndarray  # ()
+    target_dof: jnp.ndarray  # ()
+    palm_site: jnp.ndarray  # ()
+    handle_site: jnp.ndarray  # ()
+    object_geoms: jnp.ndarray  # (ngeom,) bool: the object geoms that collide (friction randomisation)
+
+    @classmethod
+    def of(cls, scene: Scene) -> Layout:
+        i = scene.ids
+        geoms = np.zeros(scene.model.ngeom, bool)
+        geoms[i.object_collision_geoms] = True
+        return cls(*(jnp.asarray(x, jnp.int32) for x in (i.hand_qpos, i.hand_dof, i.hand_actuators, i.target_qpos,
+                                                         i.target_dof, i.palm_site, i.handle_site)),
+                   object_geoms=jnp.asarray(geoms))
+
+
 class Backend(Protocol):
     name: str
     scene: Scene
     substeps: int
+    data: Any  # this scene's backend data (a pytree)
 
-    def reset_state(self, index: jnp.ndarray) -> Any: ...
+    def signature(self) -> tuple: ...  # what besides ``data`` the compiled program depends on
 
-    def step(self, ps: Any, ctrl: jnp.ndarray, damping: jnp.ndarray, friction: jnp.ndarray) -> Any: ...
+    def reset_state(self, data: Any, index: jnp.ndarray) -> Any: ...
 
-    def kinematics(self, ps: Any) -> Kinematics: ...
+    def step(self, data: Any, ps: Any, ctrl: jnp.ndarray, fields: WorldFields) -> Any: ...
+
+    def kinematics(self, data: Any, ps: Any) -> Kinematics: ...
 
 
 #: A start state: (hand q (51), target-joint q), written at rest and settled (the expert grasp, or a perturbed one).

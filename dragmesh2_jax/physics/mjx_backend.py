@@ -1,24 +1,68 @@
-"""MJX backend: ``mjx.step`` under ``lax.scan`` for the substeps; per-world damping and friction are written
-into the (per-world) model's ``dof_damping`` / ``geom_friction`` inside the step, so nothing recompiles."""
+"""MJX backend: ``mjx.step`` under ``lax.scan`` for the substeps. The MJX model is an argument (``data.model``),
+not a constant of the program; a world's model fields (damping, friction, ...) are written into its copy of
+the model inside the step, so nothing recompiles."""
 
 from __future__ import annotations
 
+import contextlib
+import sys
+
 import jax
 import jax.numpy as jnp
-from mujoco import mjx
+from flax import struct
 
-from dragmesh2_jax.physics.base import Kinematics, Start, settled_reset, stack_states, take_state
+with contextlib.redirect_stdout(sys.stderr):  # mujoco.mjx prints "Failed to import warp" when warp is absent
+    from mujoco import mjx
+
+from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, settled_reset, stack_states, take_state
 from dragmesh2_jax.scene import FORCE_SIZE, SENSORS, Scene
 
+FORCE_SLICE = slice(3 * len(SENSORS), 3 * len(SENSORS) + FORCE_SIZE)  # the contact-load sensors in sensordata
 
-def warn_cpu_batch(num_worlds: int) -> None:
-    """MJX on a CPU deadlocked inside XLA for >= 16 vmapped worlds on the development machine (jax 0.10.2, 2 cores;
-    RESULTS.md §1). Say so before it happens; the C-engine backend is the right one on a CPU anyway."""
-    import sys
 
-    if num_worlds >= 16 and jax.default_backend() == "cpu":
-        print(f"warning: MJX with {num_worlds} worlds on a CPU has hung inside XLA on some machines (RESULTS.md); "
-              "use --backend mujoco on a CPU", file=sys.stderr)
+@struct.dataclass
+class MjxData:
+    model: mjx.Model
+    bank: mjx.Data  # the start states, stacked
+    layout: Layout
+
+
+def avoid_lapack_deadlock() -> None:
+    """Start JAX's CPU client with a one-thread intra-op pool when jaxlib < 0.11.
+
+    jaxlib 0.10's CPU LAPACK kernels split a large batched Cholesky (MJX's Newton solver and implicitfast
+    integrator, from about 5 worlds of the hand task) into chunks on XLA's intra-op pool and wait for them on a
+    pool thread; two such calls at once on a 2-thread pool wait for each other forever (jax-ml/jax#36927, fixed
+    in 0.11; RESULTS.md §1). The pool is sized from the CPU affinity when the client starts, so the client is
+    started with one CPU and the affinity restored: the C engine's threads and everything else keep every core.
+    It must run before anything starts JAX's backends (``MjxBackend`` and the CLI call it); when too late, it
+    warns once."""
+    import os
+
+    import jaxlib
+    from jax._src import xla_bridge
+
+    version = tuple(int(x) for x in jaxlib.__version__.split(".")[:2])
+    if version >= (0, 11) or not hasattr(os, "sched_setaffinity"):
+        return
+    cpus = os.sched_getaffinity(0)
+    if len(cpus) == 1 or _DONE:
+        return
+    _DONE.append(True)
+    if xla_bridge.backends_are_initialized():
+        if jax.default_backend() == "cpu":
+            print(f"warning: MJX on a CPU with jaxlib {jaxlib.__version__} can deadlock from about 5 worlds when JAX "
+                  "started before the MJX backend was built (RESULTS.md §1); build it first, or run under "
+                  "`taskset -c 0`", file=sys.stderr)
+        return
+    os.sched_setaffinity(0, {min(cpus)})
+    try:
+        jax.devices()
+    finally:
+        os.sched_setaffinity(0, cpus)
+
+
+_DONE: list[bool] = []  # pinned (or warned) once per process
 
 
 class MjxBackend:
@@ -26,26 +70,21 @@ class MjxBackend:
 
     def __init__(self, scene: Scene, substeps: int, starts: list[Start], settle_substeps: int = 4,
                  impl: str = "jax"):
+        avoid_lapack_deadlock()
         self.scene, self.substeps, self.impl = scene, substeps, impl
-        self.model = mjx.put_model(scene.model, impl=impl)
-        self._bank = stack_states([mjx.put_data(scene.model, settled_reset(scene, hand_q, obj_q, settle_substeps),
-                                                impl=impl) for hand_q, obj_q in starts])
-        ids = scene.ids
-        self._hand_qpos, self._hand_dof = jnp.asarray(ids.hand_qpos), jnp.asarray(ids.hand_dof)
-        self._act = jnp.asarray(ids.hand_actuators)
-        self._obj_geoms = jnp.asarray(ids.object_collision_geoms)
-        self._friction0 = jnp.asarray(scene.model.geom_friction)
-        self._force = slice(3 * len(SENSORS), 3 * len(SENSORS) + FORCE_SIZE)
+        bank = stack_states([mjx.put_data(scene.model, settled_reset(scene, hand_q, obj_q, settle_substeps),
+                                          impl=impl) for hand_q, obj_q in starts])
+        self.data = MjxData(model=mjx.put_model(scene.model, impl=impl), bank=bank, layout=Layout.of(scene))
 
-    def reset_state(self, index) -> mjx.Data:
-        return take_state(self._bank, index)
+    def signature(self) -> tuple:
+        return self.name, self.substeps, self.impl
 
-    def step(self, ps: mjx.Data, ctrl, damping, friction) -> mjx.Data:
-        ids = self.scene.ids
-        m = self.model
-        fr = self._friction0.at[self._obj_geoms, 0].multiply(friction)
-        m = m.replace(dof_damping=m.dof_damping.at[ids.target_dof].set(damping), geom_friction=fr)
-        ps = ps.replace(ctrl=ps.ctrl.at[self._act].set(ctrl))
+    def reset_state(self, data: MjxData, index) -> mjx.Data:
+        return take_state(data.bank, index)
+
+    def step(self, data: MjxData, ps: mjx.Data, ctrl, fields: WorldFields) -> mjx.Data:
+        m = data.model.replace(**fields)
+        ps = ps.replace(ctrl=ps.ctrl.at[data.layout.hand_actuators].set(ctrl))
 
         def body(d, _):
             return mjx.step(m, d), None
@@ -53,11 +92,10 @@ class MjxBackend:
         ps, _ = jax.lax.scan(body, ps, None, length=self.substeps)
         return ps
 
-    def kinematics(self, ps: mjx.Data) -> Kinematics:
-        ids = self.scene.ids
-        R = ps.site_xmat[ids.handle_site]
-        return Kinematics(hand_q=ps.qpos[self._hand_qpos], hand_qd=ps.qvel[self._hand_dof],
-                          obj_q=ps.qpos[ids.target_qpos], obj_qd=ps.qvel[ids.target_dof],
-                          palm=ps.site_xpos[ids.palm_site], handle_pos=ps.site_xpos[ids.handle_site],
-                          handle_rot=jnp.concatenate([R[:, 0], R[:, 1]]),
-                          force=ps.sensordata[self._force])
+    def kinematics(self, data: MjxData, ps: mjx.Data) -> Kinematics:
+        L = data.layout
+        R = ps.site_xmat[L.handle_site]
+        return Kinematics(hand_q=ps.qpos[L.hand_qpos], hand_qd=ps.qvel[L.hand_dof],
+                          obj_q=ps.qpos[L.target_qpos], obj_qd=ps.qvel[L.target_dof],
+                          palm=ps.site_xpos[L.palm_site], handle_pos=ps.site_xpos[L.handle_site],
+                          handle_rot=jnp.concatenate([R[:, 0], R[:, 1]]), force=ps.sensordata[FORCE_SLICE])

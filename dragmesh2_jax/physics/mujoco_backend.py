@@ -1,7 +1,10 @@
 """C-engine backend: MuJoCo's multithreaded ``rollout`` over all worlds, called from inside the jitted step
 through ``jax.pure_callback`` (``vmap_method="broadcast_all"``), so a vmapped step makes **one host call per
-control step for the whole batch**. Each world has its own ``MjModel`` copy whose ``dof_damping`` and object
-``geom_friction`` are written before the call (no recompilation, nothing shared between worlds).
+control step for the whole batch**. Each world has its own ``MjModel`` copy whose model fields (``WorldFields``:
+damping, friction, any other) are written before the call (no recompilation, nothing shared between worlds).
+
+The model is data here too: the program carries an integer handle to the object's host models (a registry
+entry), so objects of the same structure share one compiled program, and a batch may even mix objects.
 
 The per-world state carried in JAX is (qpos, qvel, sensors): the callback is a pure function of its inputs,
 so the same seed and thread count give the same results. (MuJoCo's solver warm start is not carried across
@@ -13,6 +16,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+import threading
 
 import jax
 import jax.numpy as jnp
@@ -21,7 +25,7 @@ import numpy as np
 from flax import struct
 from mujoco import rollout
 
-from dragmesh2_jax.physics.base import Kinematics, Start, settled_reset, stack_states, take_state
+from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, settled_reset, stack_states, take_state
 from dragmesh2_jax.scene import FORCE_SIZE, SENSORS, Scene
 
 
@@ -32,49 +36,80 @@ class CState:
     sensors: jnp.ndarray  # palm (3), handle pos (3), handle x axis (3), handle y axis (3), contact load (22)
 
 
+@struct.dataclass
+class CData:
+    host: jnp.ndarray  # () int32: the object's entry in the host registry
+    bank: CState  # the start states, stacked
+    layout: Layout
+
+
 class _HostStepper:
-    """Host side: per-world models, one MjData per thread, state packing for ``rollout``."""
+    """Host side of one object: per-world models, one MjData per thread, state packing for ``rollout``."""
 
     def __init__(self, scene: Scene, substeps: int, nthread: int):
-        self.scene, self.substeps = scene, substeps
-        self.base = scene.model
+        self.substeps, self.base = substeps, scene.model
+        self.actuators = scene.ids.hand_actuators
         self.models: list[mujoco.MjModel] = []
         self.datas = [mujoco.MjData(self.base) for _ in range(max(1, nthread))]
+        self.lock = threading.Lock()  # shards of a sharded program may call in at once
         self.spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         self.nstate = mujoco.mj_stateSize(self.base, self.spec)
         m = self.base
         self.qpos_sl = slice(1, 1 + m.nq)  # FULLPHYSICS = time | qpos | qvel | act | ...
         self.qvel_sl = slice(1 + m.nq, 1 + m.nq + m.nv)
-        self.friction0 = self.base.geom_friction[scene.ids.object_collision_geoms, 0].copy()
 
     def _world_models(self, n: int) -> list[mujoco.MjModel]:
         while len(self.models) < n:
             self.models.append(copy.copy(self.base))
         return self.models[:n]
 
-    def __call__(self, qpos, qvel, ctrl, damping, friction):
-        batch = qpos.shape[:-1]
-        n = math.prod(batch)
-        qpos, qvel = qpos.reshape(n, -1), qvel.reshape(n, -1)
-        ctrl = ctrl.reshape(n, -1)
-        damping, friction = np.broadcast_to(damping, batch).reshape(n), np.broadcast_to(friction, batch).reshape(n)
-        ids = self.scene.ids
-        models = self._world_models(n)
-        og = ids.object_collision_geoms
-        for i, m in enumerate(models):
-            m.dof_damping[ids.target_dof] = damping[i]
-            m.geom_friction[og, 0] = self.friction0 * friction[i]
-        init = np.zeros((n, self.nstate))
-        init[:, self.qpos_sl], init[:, self.qvel_sl] = qpos, qvel
-        control = np.zeros((n, self.substeps, self.base.nu))
-        control[:, :, ids.hand_actuators] = ctrl[:, None, :]
-        state = np.empty((n, self.substeps, self.nstate))
-        sensors = np.empty((n, self.substeps, self.base.nsensordata))
-        rollout.rollout(models, self.datas, init, control, nstep=self.substeps, skip_checks=True, state=state,
-                        sensordata=sensors)
+    def __call__(self, qpos, qvel, ctrl, fields: dict[str, np.ndarray]):
+        """Flat batch (n, ...) in, flat batch out."""
+        n = qpos.shape[0]
+        with self.lock:
+            models = self._world_models(n)
+            for name, values in fields.items():
+                for m, v in zip(models, values, strict=True):
+                    getattr(m, name)[...] = v
+            init = np.zeros((n, self.nstate))
+            init[:, self.qpos_sl], init[:, self.qvel_sl] = qpos, qvel
+            control = np.zeros((n, self.substeps, self.base.nu))
+            control[:, :, self.actuators] = ctrl[:, None, :]
+            state = np.empty((n, self.substeps, self.nstate))
+            sensors = np.empty((n, self.substeps, self.base.nsensordata))
+            rollout.rollout(models, self.datas, init, control, nstep=self.substeps, skip_checks=True, state=state,
+                            sensordata=sensors)
         last = state[:, -1]
-        out = (last[:, self.qpos_sl], last[:, self.qvel_sl], sensors[:, -1])
-        return tuple(o.reshape(*batch, -1) for o in out)
+        return last[:, self.qpos_sl], last[:, self.qvel_sl], sensors[:, -1]
+
+
+_HOSTS: list[_HostStepper] = []  # the registry CData.host points into
+
+
+#: The process's CPUs at import: the callback may run on an XLA pool thread started on fewer (see
+#: ``mjx_backend.avoid_lapack_deadlock``), and MuJoCo's rollout threads inherit the calling thread's affinity.
+_CPUS = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+
+
+def _host_step(host, qpos, qvel, ctrl, fields):
+    """The callback: any batch shape; worlds are grouped by the object they belong to."""
+    if _CPUS is not None:
+        os.sched_setaffinity(0, _CPUS)
+    batch = qpos.shape[:-1]
+    n = math.prod(batch)
+    flat = lambda x: np.asarray(x, np.float64).reshape(n, *x.shape[len(batch):])  # noqa: E731
+    host = np.broadcast_to(host, batch).reshape(n)
+    qpos, qvel, ctrl = flat(qpos), flat(qvel), flat(ctrl)
+    fields = {k: flat(v) for k, v in fields.items()}
+    out = [np.empty((n, qpos.shape[1])), np.empty((n, qvel.shape[1])), None]
+    for h in np.unique(host):
+        idx = np.flatnonzero(host == h)
+        res = _HOSTS[int(h)](qpos[idx], qvel[idx], ctrl[idx], {k: v[idx] for k, v in fields.items()})
+        if out[2] is None:
+            out[2] = np.empty((n, res[2].shape[1]))
+        for o, r in zip(out, res, strict=True):
+            o[idx] = r
+    return tuple(o.reshape(*batch, -1) for o in out)
 
 
 class MujocoBackend:
@@ -84,34 +119,34 @@ class MujocoBackend:
                  nthread: int | None = None):
         self.scene, self.substeps = scene, substeps
         self.nthread = nthread or os.cpu_count() or 1
-        self._host = _HostStepper(scene, substeps, self.nthread)
+        _HOSTS.append(_HostStepper(scene, substeps, self.nthread))
         ds = [settled_reset(scene, hand_q, obj_q, settle_substeps) for hand_q, obj_q in starts]
-        self._bank = stack_states([CState(qpos=jnp.asarray(d.qpos), qvel=jnp.asarray(d.qvel),
-                                          sensors=jnp.asarray(d.sensordata)) for d in ds])
-        self._hand_qpos = jnp.asarray(scene.ids.hand_qpos)
-        self._hand_dof = jnp.asarray(scene.ids.hand_dof)
+        bank = stack_states([CState(qpos=jnp.asarray(d.qpos), qvel=jnp.asarray(d.qvel),
+                                    sensors=jnp.asarray(d.sensordata)) for d in ds])
+        self.data = CData(host=jnp.int32(len(_HOSTS) - 1), bank=bank, layout=Layout.of(scene))
 
-    def reset_state(self, index) -> CState:
-        return take_state(self._bank, index)
+    def signature(self) -> tuple:
+        return self.name, self.substeps, self.nthread
 
-    def step(self, ps: CState, ctrl, damping, friction) -> CState:
+    def reset_state(self, data: CData, index) -> CState:
+        return take_state(data.bank, index)
+
+    def step(self, data: CData, ps: CState, ctrl, fields: WorldFields) -> CState:
         dt = ps.qpos.dtype
         shapes = (jax.ShapeDtypeStruct(ps.qpos.shape, dt), jax.ShapeDtypeStruct(ps.qvel.shape, dt),
                   jax.ShapeDtypeStruct(ps.sensors.shape, dt))
 
-        def host(qpos, qvel, c, damp, fr):
-            out = self._host(np.asarray(qpos, np.float64), np.asarray(qvel, np.float64), np.asarray(c, np.float64),
-                             np.asarray(damp, np.float64), np.asarray(fr, np.float64))
-            return tuple(np.asarray(o, dtype=dt) for o in out)
+        def host(*args):
+            return tuple(np.asarray(o, dtype=dt) for o in _host_step(*args))
 
-        qpos, qvel, sensors = jax.pure_callback(host, shapes, ps.qpos, ps.qvel, ctrl.astype(dt),
-                                                jnp.asarray(damping, dt), jnp.asarray(friction, dt),
+        qpos, qvel, sensors = jax.pure_callback(host, shapes, data.host, ps.qpos, ps.qvel, ctrl.astype(dt),
+                                                {k: jnp.asarray(v, dt) for k, v in fields.items()},
                                                 vmap_method="broadcast_all")
         return CState(qpos=qpos, qvel=qvel, sensors=sensors)
 
-    def kinematics(self, ps: CState) -> Kinematics:
-        ids = self.scene.ids
+    def kinematics(self, data: CData, ps: CState) -> Kinematics:
+        L = data.layout
         s, n = ps.sensors, 3 * len(SENSORS)
-        return Kinematics(hand_q=ps.qpos[self._hand_qpos], hand_qd=ps.qvel[self._hand_dof],
-                          obj_q=ps.qpos[ids.target_qpos], obj_qd=ps.qvel[ids.target_dof],
+        return Kinematics(hand_q=ps.qpos[L.hand_qpos], hand_qd=ps.qvel[L.hand_dof],
+                          obj_q=ps.qpos[L.target_qpos], obj_qd=ps.qvel[L.target_dof],
                           palm=s[0:3], handle_pos=s[3:6], handle_rot=s[6:12], force=s[n:n + FORCE_SIZE])

@@ -49,6 +49,16 @@ def gla_last(q_last, k, v, g):
     return jnp.einsum("...th,...thv->...hv", attn, v)
 
 
+class _Kernel(nn.Module):
+    """A bias-free linear map's kernel, under the parameter names of ``nn.Dense`` (so the tree is unchanged)."""
+
+    shape: tuple[int, int]
+
+    @nn.compact
+    def __call__(self):
+        return self.param("kernel", nn.initializers.lecun_normal(), self.shape)
+
+
 class GatedLinearAttention(nn.Module):
     hidden: int = 128
     heads: int = 4
@@ -59,18 +69,28 @@ class GatedLinearAttention(nn.Module):
     norm_eps: float = 1e-5
 
     @nn.compact
-    def __call__(self, x):
-        """x: (..., T, hidden) -> the last token's output (..., hidden)."""
+    def __call__(self, x, proj=None):
+        """x: (..., T, hidden) -> the last token's output (..., hidden).
+
+        With ``proj = (kernel, bias)`` of a linear input projection, ``x`` is the raw tokens (..., T, d_in) and the
+        projection is folded into the key, value and gate weights (x W_p W_k = x (W_p W_k)): per token a product
+        with d_in x (dk + dv + rank) weights instead of d_in x hidden and then hidden x (dk + dv + rank)."""
         H = self.heads
         dk, dv = int(self.hidden * self.expand_k), int(self.hidden * self.expand_v)
         hk, hv = dk // H, dv // H
         split = lambda y, d: y.reshape(*y.shape[:-1], H, d)  # noqa: E731
-        last = x[..., -1, :]
+        if proj is None:
+            tokens = lambda W: x @ W  # noqa: E731
+            last = x[..., -1, :]
+        else:
+            W_in, b_in = proj
+            tokens = lambda W: x @ (W_in @ W) + b_in @ W  # noqa: E731
+            last = x[..., -1, :] @ W_in + b_in
+        kernel = lambda name, n: _Kernel((self.hidden, n), name=name)()  # noqa: E731
         q = split(nn.Dense(dk, use_bias=False, name="q_proj")(last), hk) * hk**-0.5
-        k = split(nn.Dense(dk, use_bias=False, name="k_proj")(x), hk)
-        v = split(nn.Dense(dv, use_bias=False, name="v_proj")(x), hv)
-        gk = nn.Dense(dk, name="gk_up", bias_init=nn.initializers.zeros)(
-            nn.Dense(self.gate_rank, use_bias=False, name="gk_down")(x))
+        k = split(tokens(kernel("k_proj", dk)), hk)
+        v = split(tokens(kernel("v_proj", dv)), hv)
+        gk = nn.Dense(dk, name="gk_up", bias_init=nn.initializers.zeros)(tokens(kernel("gk_down", self.gate_rank)))
         gk = split(jax.nn.log_sigmoid(gk) / self.gate_normalizer, hk)
         o = gla_last(q, k, v, gk)
         scale = self.param("g_norm_scale", nn.initializers.ones, (hv,))

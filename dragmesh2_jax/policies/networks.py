@@ -49,9 +49,13 @@ class TemporalEncoder(nn.Module):
         if self.kind == "flat":
             x = history.reshape(*history.shape[:-2], -1)
             return nn.LayerNorm(name="hist_norm")(MLP((256, self.dim))(x))
-        x = nn.Dense(self.dim, bias_init=_zeros, name="token_proj")(history)
-        if self.kind == "gla":  # computes the last token's output only (closed form)
-            return nn.LayerNorm(name="hist_norm")(GatedLinearAttention(hidden=self.dim, heads=self.heads)(x))
+        token_proj = nn.Dense(self.dim, bias_init=_zeros, name="token_proj")
+        if self.kind == "gla":  # the last token's output only (closed form), token_proj folded into the layer
+            token_proj(history[..., -1, :])  # creates its parameters
+            proj = token_proj.variables["params"]
+            gla = GatedLinearAttention(hidden=self.dim, heads=self.heads)
+            return nn.LayerNorm(name="hist_norm")(gla(history, (proj["kernel"], proj["bias"])))
+        x = token_proj(history)
         if self.kind == "gru":
             cell = nn.GRUCell(features=self.dim)
             x = nn.RNN(cell)(x.reshape(-1, *x.shape[-2:])).reshape(x.shape)

@@ -11,6 +11,10 @@ Run folder:
                            final.npz
 A checkpoint holds every leaf of the TrainState (params, optimiser, env state, normalisers, rng, epoch), so
 ``--resume`` continues exactly where the run stopped.
+
+Several seeds train as one program (:func:`train_runs`: the epoch ``vmap``ped over a run axis, sharded over the
+local devices when there are several); each seed still gets its own run folder of the layout above
+(``OUT/seed_N``), so evaluation and fine-tunes read it like any run.
 """
 
 from __future__ import annotations
@@ -93,12 +97,13 @@ def latest_checkpoint(run_dir: Path) -> Path | None:
     return ck[-1] if ck else None
 
 
-def write_run_meta(run_dir: Path, trainer: Trainer, object_dir: str, extra: dict | None = None) -> None:
+def write_run_meta(run_dir: Path, trainer: Trainer, object_dir: str, extra: dict | None = None,
+                   seed: int | None = None) -> None:
     write_trajectory(trainer.task.traj, run_dir / "trajectory.json")
+    ppo = dataclasses.asdict(trainer.config if seed is None else dataclasses.replace(trainer.config, seed=seed))
     meta = {**(extra or {}), "method": trainer.method.name, "object": str(Path(object_dir).resolve()),
             "trajectory": "trajectory.json", "backend": trainer.task.backend.name,
-            "ppo": dataclasses.asdict(trainer.config), "task": json.loads(json.dumps(
-                dataclasses.asdict(trainer.task.config), default=str))}
+            "ppo": ppo, "task": json.loads(json.dumps(dataclasses.asdict(trainer.task.config), default=str))}
     atomic_write_json(run_dir / "run.json", meta)
 
 
@@ -130,66 +135,122 @@ def _read_jsonl(path: Path, max_epoch: int) -> list[dict]:
     return [r for r in rows if r["epoch"] <= max_epoch]
 
 
+def run_mesh(num_runs: int) -> jax.sharding.Mesh | None:
+    """A mesh over every device (all hosts' after ``jax.distributed.initialize()``) when there are several and
+    the runs split evenly over them; else None (one device runs them all)."""
+    from dragmesh2_jax.ppo.train import RUN_AXIS
+
+    n = jax.device_count()
+    return jax.make_mesh((n,), (RUN_AXIS,)) if n > 1 and num_runs % n == 0 else None
+
+
+def _resume_epoch(run_dirs: list[Path]) -> int:
+    """The newest epoch every run folder has a checkpoint of (runs save together; an interruption between two
+    folders' saves leaves the older epoch the common one)."""
+    common = None
+    for d in run_dirs:
+        epochs = {int(p.stem.split("_")[1]) for p in (d / "checkpoints").glob("epoch_*.npz")}
+        common = epochs if common is None else common & epochs
+    if not common:
+        raise DragMeshError(f"{run_dirs[0].parent if len(run_dirs) > 1 else run_dirs[0]}: nothing to resume "
+                            "(no checkpoints/epoch_*.npz common to every run)")
+    return max(common)
+
+
+def take_run(ts: TrainState, i: int) -> TrainState:
+    return jax.tree.map(lambda x: x[i], ts)
+
+
+def train_runs(trainer: Trainer, run_dirs: list[Path], seeds: list[int], object_dir: str, resume: bool = False,
+               save_every: int = 10, progress: bool = True, log_fn=None,
+               selection: RobustSelection = RobustSelection(), start: TrainState | None = None,
+               meta: dict | None = None, mesh: jax.sharding.Mesh | None = None) -> tuple[TrainState, list[list[dict]]]:
+    """Train R runs (one per seed and folder) to ``trainer.config.epochs`` epochs as one program: the state has a
+    leading run axis, one compiled epoch advances every run, split over ``mesh`` when given. Each folder gets
+    its own logs, robustness rows and checkpoints. Returns the stacked final state and each run's log rows.
+    A new single run starts from ``start`` when given (a fine-tune); ``meta`` adds keys to every run record."""
+    run_dirs = [Path(d) for d in run_dirs]
+    if len(run_dirs) != len(seeds) or not seeds:
+        raise DragMeshError("one run folder per seed, at least one")
+    if start is not None and len(seeds) != 1:
+        raise DragMeshError("a fine-tune continues one run, not several seeds")
+    c = trainer.config
+    R = len(seeds)
+    rows: list[list[dict]] = [[] for _ in seeds]
+    robust_rows: list[list[dict]] = [[] for _ in seeds]
+    if resume:
+        e = _resume_epoch(run_dirs)
+        template = take_run(trainer.init_runs(seeds[:1]), 0)
+        states = [load_checkpoint(template, d / "checkpoints" / f"epoch_{e:04d}.npz") for d in run_dirs]
+        ts = jax.tree.map(lambda *x: jax.numpy.stack(x), *states)
+        rows = [_read_jsonl(d / "log.jsonl", e) for d in run_dirs]
+        robust_rows = [_read_jsonl(d / "robust.jsonl", e) for d in run_dirs]
+    else:
+        for d, seed in zip(run_dirs, seeds, strict=True):
+            if (d / "log.jsonl").exists():
+                raise DragMeshError(f"{d}: already holds a run (use --resume, or another --out)")
+            d.mkdir(parents=True, exist_ok=True)
+            write_run_meta(d, trainer, object_dir, meta, seed=seed)
+        ts = trainer.init_runs(seeds) if start is None else jax.tree.map(lambda x: x[None], start)
+    best = [max((r["reward"] for r in rr), default=-np.inf) for rr in rows]
+    best_robust = [max((selection.score(r) for r in rr), default=None) for rr in robust_rows]
+    robust = robust_evaluator(trainer, selection) if selection.every > 0 else None
+    first = int(ts.epoch[0])
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    name = trainer.method.name + (f" x {R} seeds" if R > 1 else "")
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.fields[stats]}"), disable=not progress) as bar:
+        task = bar.add_task(f"train {name}", total=c.epochs, completed=first, stats="")
+        t_start = time.time()
+        for _ in range(first, c.epochs):
+            ts, m = trainer.epoch_runs(ts, mesh)
+            m = {k: np.asarray(v, np.float64) for k, v in jax.device_get(m).items()}
+            e = int(ts.epoch[0])
+            seconds = round(time.time() - t_start, 2)
+            for i, d in enumerate(run_dirs):
+                row = {"epoch": e, **{k: float(m[k][i]) for k in LOG_KEYS if k in m}, "seconds": seconds,
+                       "env_steps": e * c.num_envs * c.rollout_len}
+                rows[i].append(row)
+                _write_table(d / "log", rows[i], LOG_KEYS)
+                one = take_run(ts, i)
+                if e % save_every == 0:
+                    save_checkpoint(one, d / "checkpoints" / f"epoch_{e:04d}.npz")
+                if row["reward"] > best[i]:
+                    best[i] = row["reward"]
+                    save_checkpoint(one, d / "checkpoints" / "best.npz")
+                if robust is not None and (e % selection.every == 0 or e == c.epochs):
+                    r = robust(one)
+                    r["selected"] = best_robust[i] is None or selection.score(r) > best_robust[i]
+                    if r["selected"]:
+                        best_robust[i] = selection.score(r)
+                        save_checkpoint(one, d / "checkpoints" / "best_robust.npz")
+                    robust_rows[i].append(r)
+                    _write_table(d / "robust", robust_rows[i], ROBUST_KEYS)
+                if log_fn:
+                    log_fn(row)
+            mean = {k: float(np.mean(m[k])) for k in ("reward", "success", "progress", "clip099")}
+            bar.update(task, completed=e, stats=f"reward {mean['reward']:.2f}  success {mean['success']:.2f}  "
+                                                  f"progress {mean['progress']:.2f}  clip099 {mean['clip099']:.2f}")
+    for i, d in enumerate(run_dirs):
+        save_checkpoint(take_run(ts, i), d / "checkpoints" / "final.npz")
+    return ts, rows
+
+
 def train(trainer: Trainer, run_dir: str | Path, object_dir: str, resume: bool = False, save_every: int = 10,
           progress: bool = True, log_fn=None, selection: RobustSelection = RobustSelection(),
           start: TrainState | None = None, meta: dict | None = None) -> tuple[TrainState, list[dict]]:
-    """Train to ``trainer.config.epochs`` epochs; returns the final state and the log rows. A new run starts
-    from ``start`` when given (a fine-tune: a trained state), else from ``trainer.init()``; ``meta`` adds keys
-    to the run record (run.json)."""
-    run_dir = Path(run_dir)
-    c = trainer.config
-    ts = trainer.init() if start is None or resume else start
-    rows: list[dict] = []
-    robust_rows: list[dict] = []
-    if resume:
-        ck = latest_checkpoint(run_dir)
-        if ck is None:
-            raise DragMeshError(f"{run_dir}: nothing to resume (no checkpoints/epoch_*.npz)")
-        ts = load_checkpoint(ts, ck)
-        rows = _read_jsonl(run_dir / "log.jsonl", int(ts.epoch))
-        robust_rows = _read_jsonl(run_dir / "robust.jsonl", int(ts.epoch))
-    else:
-        if (run_dir / "log.jsonl").exists():
-            raise DragMeshError(f"{run_dir}: already holds a run (use --resume, or another --out)")
-        run_dir.mkdir(parents=True, exist_ok=True)
-        write_run_meta(run_dir, trainer, object_dir, meta)
-    best = max((r["reward"] for r in rows), default=-np.inf)
-    best_robust = max((selection.score(r) for r in robust_rows), default=None)
-    robust = robust_evaluator(trainer, selection) if selection.every > 0 else None
-    start = int(ts.epoch)
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    """One run (the config's seed) in ``run_dir``: :func:`train_runs` with one run. Returns its final state and
+    log rows."""
+    ts, rows = train_runs(trainer, [Path(run_dir)], [trainer.config.seed], object_dir, resume, save_every, progress,
+                          log_fn, selection, start, meta)
+    return take_run(ts, 0), rows[0]
 
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.fields[stats]}"), disable=not progress) as bar:
-        task = bar.add_task(f"train {trainer.method.name}", total=c.epochs, completed=start, stats="")
-        t_start = time.time()
-        for _ in range(start, c.epochs):
-            ts, m = trainer.epoch(ts)
-            m = {k: float(v) for k, v in jax.device_get(m).items()}
-            e = int(ts.epoch)
-            row = {"epoch": e, **{k: m[k] for k in LOG_KEYS if k in m}, "seconds": round(time.time() - t_start, 2),
-                   "env_steps": e * c.num_envs * c.rollout_len}
-            rows.append(row)
-            _write_table(run_dir / "log", rows, LOG_KEYS)
-            if e % save_every == 0:
-                save_checkpoint(ts, run_dir / "checkpoints" / f"epoch_{e:04d}.npz")
-            if row["reward"] > best:
-                best = row["reward"]
-                save_checkpoint(ts, run_dir / "checkpoints" / "best.npz")
-            if robust is not None and (e % selection.every == 0 or e == c.epochs):
-                r = robust(ts)
-                r["selected"] = best_robust is None or selection.score(r) > best_robust
-                if r["selected"]:
-                    best_robust = selection.score(r)
-                    save_checkpoint(ts, run_dir / "checkpoints" / "best_robust.npz")
-                robust_rows.append(r)
-                _write_table(run_dir / "robust", robust_rows, ROBUST_KEYS)
-            bar.update(task, completed=e, stats=f"reward {row['reward']:.2f}  success {row['success']:.2f}  "
-                                                  f"progress {row['progress']:.2f}  clip099 {row['clip099']:.2f}")
-            if log_fn:
-                log_fn(row)
-    save_checkpoint(ts, run_dir / "checkpoints" / "final.npz")
-    return ts, rows
+
+def train_seeds(trainer: Trainer, out: str | Path, seeds: list[int], object_dir: str, **kwargs):
+    """Seeds as one program, each in ``out/seed_N``, sharded over the devices when they divide the seeds."""
+    dirs = [Path(out) / f"seed_{s}" for s in seeds]
+    return train_runs(trainer, dirs, seeds, object_dir, mesh=run_mesh(len(seeds)), **kwargs)
 
 
 def _write_table(stem: Path, rows: list[dict], keys: tuple[str, ...]) -> None:

@@ -2,12 +2,22 @@
 (``lax.scan`` over the vmapped env) + GAE + ``update_epochs`` x minibatch updates. Python only loops over
 epochs (``train``) for logging and checkpoints.
 
+Programs are compiled once per *signature* (method, PPO and task config, scene config, backend), with the
+object's data (``task.data``: the model, start states, task boundary) an argument: a second object of the same
+structure reuses the compiled epoch. ``Trainer.epoch_runs`` is the same epoch ``vmap``ped over a leading run
+axis (seeds), one program for a table's column of seeds; with a device mesh the run axis is sharded over the
+devices (``shard_map``; on several hosts, call ``jax.distributed.initialize()`` first and the mesh spans
+every host's devices).
+
 Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds + w_aux L_aux, w_aux warmed up 0 -> 0.01.
 Time-limit truncations bootstrap from V(final observation); terminations (success, detachment) do not.
 """
 
 from __future__ import annotations
 
+import collections
+import copy
+import dataclasses
 from typing import Any
 
 import jax
@@ -20,10 +30,13 @@ from dragmesh2_jax.policies.methods import Method
 from dragmesh2_jax.policies.networks import ActorCritic
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.normalize import RunningStats
-from dragmesh2_jax.task.env import Obs, PullTask, State, make_batched
+from dragmesh2_jax.task.env import Obs, PullTask, State, TaskData, make_batched
 
 LOG2PI = float(np.log(2 * np.pi))
 CLIP_LEVEL = 0.99  # clip099: a step whose max |a_i| exceeds this counts as saturated (facts §8)
+RUN_AXIS = "runs"  # the mesh axis the run (seed) axis is sharded over
+PROGRAM_CACHE_SIZE = 8  # compiled programs kept (each holds its executables)
+_PROGRAMS: collections.OrderedDict[tuple, Any] = collections.OrderedDict()
 
 
 @struct.dataclass
@@ -84,13 +97,55 @@ class Trainer:
         self.use_aux = method.physical_signals and method.encoder != "none"
         self.aram = task.config.reward.aram
         self.reset, self.step = make_batched(task)
-        if getattr(getattr(task, "backend", None), "name", None) == "mjx":
-            from dragmesh2_jax.physics.mjx_backend import warn_cpu_batch
-
-            warn_cpu_batch(config.num_envs)
         self.tx = optax.chain(optax.clip_by_global_norm(config.max_grad_norm),
                               optax.inject_hyperparams(optax.adam)(learning_rate=config.lr))
-        self.epoch = jax.jit(self._epoch)
+
+    # ---------------------------------------------------------------------------- compiled programs
+    def signature(self) -> tuple:
+        """What a compiled program depends on besides the object's data (the seed and the epoch count are
+        inputs or Python-side, so they are not part of it)."""
+        return self.method, self.net, dataclasses.replace(self.config, seed=0, epochs=1), self.task.signature()
+
+    def bind(self, data: TaskData) -> Trainer:
+        """This trainer over another object's data (or over the tracers of a compiled program)."""
+        t = copy.copy(self)
+        t.task = self.task.bind(data)
+        t.reset, t.step = make_batched(t.task)
+        return t
+
+    def _program(self, name: str, build):
+        """The compiled program ``name`` for this signature, built by ``build(template_trainer)`` on first use."""
+        key = (name, self.signature())
+        if key not in _PROGRAMS:
+            _PROGRAMS[key] = build(self)
+            while len(_PROGRAMS) > PROGRAM_CACHE_SIZE:
+                _PROGRAMS.popitem(last=False)
+        _PROGRAMS.move_to_end(key)
+        return _PROGRAMS[key]
+
+    def epoch(self, ts: TrainState) -> tuple[TrainState, dict]:
+        """One epoch: rollout, GAE, PPO update (one compiled program per signature)."""
+        run = self._program("epoch", lambda t: jax.jit(lambda data, ts: t.bind(data)._epoch(ts)))
+        return run(self.task.data, ts)
+
+    def epoch_runs(self, ts: TrainState, mesh: jax.sharding.Mesh | None = None) -> tuple[TrainState, dict]:
+        """One epoch of R runs at once: every leaf of ``ts`` (and of the metrics) has a leading run axis. With
+        ``mesh`` (one axis, ``RUN_AXIS``) the runs are split over its devices, R a multiple of its size."""
+        def build(t):  # the vmapped epoch, and its compiled forms by mesh
+            return {"epoch": jax.vmap(lambda data, ts: t.bind(data)._epoch(ts), in_axes=(None, 0))}
+
+        P = jax.sharding.PartitionSpec
+        programs = self._program("epoch_runs", build)
+        if mesh not in programs:
+            f = programs["epoch"]
+            if mesh is not None:
+                f = jax.shard_map(f, mesh=mesh, in_specs=(P(), P(RUN_AXIS)), out_specs=P(RUN_AXIS), check_vma=False)
+            programs[mesh] = jax.jit(f)
+        data = self.task.data
+        if mesh is not None:  # runs split over the devices, the object's data on every device (no-ops once placed)
+            data = jax.device_put(data, jax.sharding.NamedSharding(mesh, P()))
+            ts = jax.device_put(ts, jax.sharding.NamedSharding(mesh, P(RUN_AXIS)))
+        return programs[mesh](data, ts)
 
     def _update_aram_lambda(self, env_state: State, metrics: dict):
         """lambda_ARAM, once per epoch (facts §5): when the epoch's success exceeds the gate,
@@ -137,10 +192,20 @@ class Trainer:
         return policy
 
     def init(self, seed: int | None = None) -> TrainState:
+        """A new run's state (parameters, optimiser, worlds) from ``seed`` (default: the config's)."""
+        run = self._program("init", lambda t: jax.jit(lambda data, key: t.bind(data)._init(key)))
+        return run(self.task.data, jax.random.PRNGKey(self.config.seed if seed is None else seed))
+
+    def init_runs(self, seeds: list[int]) -> TrainState:
+        """The states of runs with these seeds, stacked on a leading run axis (each equals ``init(seed)``)."""
+        run = self._program("init_runs", lambda t: jax.jit(jax.vmap(lambda data, key: t.bind(data)._init(key),
+                                                                    in_axes=(None, 0))))
+        return run(self.task.data, jnp.stack([jax.random.PRNGKey(s) for s in seeds]))
+
+    def _init(self, rng: jax.Array) -> TrainState:
         c = self.config
-        rng = jax.random.PRNGKey(c.seed if seed is None else seed)
         rng, k_net, k_env = jax.random.split(rng, 3)
-        env_state = jax.jit(self.reset)(jax.random.split(k_env, c.num_envs))
+        env_state = self.reset(jax.random.split(k_env, c.num_envs))
         obs = env_state.obs  # sizes come from the env (120, 16 x 102, 4 for the pulling task)
         params = self.net.init(k_net, obs.state[:1], obs.history[:1], obs.privileged[:1], method=ActorCritic.init_all)
         return TrainState(params=params, opt_state=self.tx.init(params), env_state=env_state,
@@ -164,8 +229,10 @@ class Trainer:
             mu, log_std, v, _ = self.apply(ts.params, ts, obs)
             a = mu + jnp.exp(log_std) * jax.random.normal(k, mu.shape)
             nxt = self.step(env_state, a)
-            _, _, v_final, _ = self.apply(ts.params, ts, nxt.final_obs)
-            reward = nxt.reward + c.gamma * denorm(v_final) * nxt.truncated  # bootstrap time limits only
+            # bootstrap time limits only; the value of the final observations only at a step where one truncates
+            v_final = jax.lax.cond(nxt.truncated.any(), lambda o: self.apply(ts.params, ts, o)[2],
+                                   lambda o: jnp.zeros_like(v), nxt.final_obs)
+            reward = nxt.reward + c.gamma * denorm(v_final) * nxt.truncated
             out = {"state": obs.state, "history": obs.history, "aux": obs.aux, "privileged": obs.privileged,
                    "action": a,
                    "logp": gaussian_logp(a, mu, log_std), "mu": mu, "log_std": jnp.broadcast_to(log_std, mu.shape),

@@ -21,6 +21,12 @@ With ``TaskConfig.force_obs`` (beyond the paper) the contact load f_t (22) is ap
 every history token (-> 124). f_t = signed log1p of [wrist force (3, N), wrist torque (3, N m), normal contact
 force on the palm and each of the 15 phalanges (16, N)], so that a grip and a yank fit one scale.
 
+The object is data: everything object-specific (the backend's model and start bank, the task boundary, the
+nominal model fields) is ``task.data`` (:class:`TaskData`), and :meth:`PullTask.bind` gives the same task over
+other data, as Playground's domain-randomisation wrapper swaps the model inside a traced function. A program
+written against ``task.bind(data)`` with ``data`` an argument compiles once for every object of the same
+structure (see ``ppo/train.py``).
+
 Reset: each episode starts at the expert grasp (drag-start frame, settled), or, with ``TaskConfig.reset_noise``,
 at one of a bank of seeded perturbations of it (evaluation uses one by default, so a deterministic cell is a
 distribution, not one episode repeated).
@@ -28,6 +34,7 @@ distribution, not one episode repeated).
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import jax
@@ -37,7 +44,7 @@ from flax import struct
 
 from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL, active_dofs
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.physics.base import Backend, Kinematics, Start
+from dragmesh2_jax.physics.base import Backend, Kinematics, Start, WorldFields
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
 from dragmesh2_jax.task.rewards import aram_penalty, reconfig_bonus, reward_terms
@@ -83,6 +90,21 @@ class TaskParams:
     damping: jnp.ndarray  # nominal target-joint damping
     hand_lo: jnp.ndarray
     hand_hi: jnp.ndarray
+    revolute: jnp.ndarray  # the target joint is a hinge (bool)
+
+
+#: The model fields each world draws its own value of (damping and friction randomisation).
+RANDOMIZED_FIELDS = ("dof_damping", "geom_friction")
+
+
+@struct.dataclass
+class TaskData:
+    """Everything object-specific the task's functions read: an argument of a compiled program, not a constant."""
+
+    physics: Any  # the backend's data (model or host handle, start bank, layout)
+    params: TaskParams
+    start_ctrl: jnp.ndarray  # (bank, 51) the PD target each start was settled with
+    fields: WorldFields  # nominal values of RANDOMIZED_FIELDS
 
 
 def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
@@ -148,15 +170,43 @@ class PullTask:
         starts = reset_starts(scene, traj, config.reset_noise)
         self.backend = make_backend(scene, config, starts)
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
-        self.params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
-                                 q_done=jnp.float32(traj.q_done), damping=jnp.float32(scene.config.damping),
-                                 hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32))
-        self._start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), self.params.hand_lo,
-                                    self.params.hand_hi)  # the PD target each start was settled with
+        params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
+                            q_done=jnp.float32(traj.q_done), damping=jnp.float32(scene.config.damping),
+                            hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32),
+                            revolute=jnp.bool_(scene.ids.target_is_revolute))
+        start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
+        self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
+                             fields={f: jnp.asarray(getattr(scene.model, f)) for f in RANDOMIZED_FIELDS})
         self.num_starts = len(starts)
         self.action_size = NUM_DOFS
         self.active = jnp.asarray(active_dofs(scene.config.hand))
         self.substeps = self.backend.substeps
+
+    def bind(self, data: TaskData) -> PullTask:
+        """This task over ``data`` (another object of the same structure, or tracers of a compiled program)."""
+        task = copy.copy(self)
+        task.data = data
+        return task
+
+    def signature(self) -> tuple:
+        """What the compiled functions depend on besides ``data`` (and its shapes, and on MJX the model's static
+        fields, geometry included): tasks with equal signatures share programs. The scene enters through the
+        model (data) but for the hand variant, which fixes the moving DoFs."""
+        return self.config, self.scene.config.hand, self.backend.signature()
+
+    @property
+    def params(self) -> TaskParams:
+        return self.data.params
+
+    def kinematics(self, ps) -> Kinematics:
+        return self.backend.kinematics(self.data.physics, ps)
+
+    def world_fields(self, damping_scale, friction_scale) -> WorldFields:
+        """One world's model fields: the target joint's damping x ``damping_scale``, the sliding friction of the
+        object's colliding geoms x ``friction_scale``. Add a field here (and to RANDOMIZED_FIELDS) to randomise it."""
+        f, p, L = self.data.fields, self.data.params, self.data.physics.layout
+        return {"dof_damping": f["dof_damping"].at[L.target_dof].set(p.damping * damping_scale),
+                "geom_friction": f["geom_friction"].at[:, 0].multiply(jnp.where(L.object_geoms, friction_scale, 1.0))}
 
     # ------------------------------------------------------------------------------------------ helpers
     def _phi(self, q):
@@ -215,10 +265,10 @@ class PullTask:
     def _reset(self, key, damp, fric, fixed) -> State:
         c = self.config
         key, k_start = jax.random.split(key)
-        start = jax.random.randint(k_start, (), 0, self.num_starts)
-        ps = self.backend.reset_state(start)
-        k = self.backend.kinematics(ps)
-        ctrl = self._start_ctrl[start]
+        start = jax.random.randint(k_start, (), 0, self.data.start_ctrl.shape[0])
+        ps = self.backend.reset_state(self.data.physics, start)
+        k = self.kinematics(ps)
+        ctrl = self.data.start_ctrl[start]
         e = (ctrl - k.hand_q).astype(jnp.float32)
         token = self._token(e, jnp.zeros(NUM_DOFS, jnp.float32), k)
         history = jnp.zeros((c.history_len, token.shape[0]), jnp.float32).at[-1].set(token)
@@ -249,22 +299,23 @@ class PullTask:
     def step(self, state: State, action: jnp.ndarray) -> State:
         """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits)."""
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
-        k0 = self.backend.kinematics(state.physics)
+        k0 = self.kinematics(state.physics)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a)
 
     def step_target(self, state: State, target: jnp.ndarray) -> State:
         """One control step with the hand PD target given directly (the trajectory-tracking baseline); the
         history token's action part is then (target - q) / alpha clipped to [-1, 1]."""
-        k0 = self.backend.kinematics(state.physics)
+        k0 = self.kinematics(state.physics)
         ctrl = jnp.clip(target.astype(jnp.float32), self.params.hand_lo, self.params.hand_hi)
         a = jnp.clip((ctrl - k0.hand_q) / self.config.alpha, -1.0, 1.0)
         return self._advance(state, ctrl, a)
 
     def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray) -> State:
         c, p, info = self.config, self.params, state.info
-        ps = self.backend.step(state.physics, ctrl, p.damping * info["damping_scale"], info["friction_scale"])
-        k = self.backend.kinematics(ps)
+        ps = self.backend.step(self.data.physics, state.physics, ctrl,
+                               self.world_fields(info["damping_scale"], info["friction_scale"]))
+        k = self.kinematics(ps)
         finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(x)) for x in jax.tree.leaves(k)]))
         k = jax.tree.map(lambda x: jnp.where(finite, x, 0.0), k)
 
@@ -284,7 +335,7 @@ class PullTask:
         delta, K = p.q_goal - p.q_start, c.aux_window
         if c.reward.aram is not None:
             terms["aram"], stall = aram_penalty(c.reward.aram, info["aram_lambda"], stall, d, a,
-                                                q - q_long[-1 - K], delta, self.scene.ids.target_is_revolute)
+                                                q - q_long[-1 - K], delta, p.revolute)
         if c.reward.reconfig is not None:
             prev_a = state.obs.history[-1, NUM_DOFS:2 * NUM_DOFS]
             terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, prev_a,

@@ -24,11 +24,11 @@ def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp
     }
 
 
-def aram_penalty(cfg: AramConfig, lam, stall, d, action, q_resp, delta, revolute: bool):
+def aram_penalty(cfg: AramConfig, lam, stall, d, action, q_resp, delta, revolute):
     """ARAM-lite (facts §5): (r_aram, new stall count). ``q_resp`` = q_t - q_{t-K}; ``delta`` = q_goal - q_start."""
     normalized = jnp.abs(q_resp) / jnp.maximum(delta, 1e-6) < cfg.frac
     raw = jnp.abs(q_resp) < cfg.raw_eps
-    low = {"raw": raw, "normalized": normalized, "joint_aware": raw if revolute else normalized}[cfg.response]
+    low = {"raw": raw, "normalized": normalized, "joint_aware": jnp.where(revolute, raw, normalized)}[cfg.response]
     stall = jnp.where(low, stall + 1, 0)
     gate = (d < cfg.d_contact) & (jnp.linalg.norm(action) > cfg.action_norm) & (stall >= cfg.stall_steps)
     return -lam * gate * jnp.mean(action**2), stall

@@ -60,6 +60,16 @@ def test_gla_layer_dimensions_follow_the_reference():
     assert layer.apply({"params": params}, x).shape == (2, 128)  # the last token only
 
 
+def test_gla_with_the_token_projection_folded_in_equals_projecting_first():
+    layer = GatedLinearAttention()
+    tokens = jax.random.normal(jax.random.PRNGKey(1), (3, 16, 102))
+    W, b = jax.random.normal(jax.random.PRNGKey(2), (102, 128)) * 0.1, jnp.linspace(-0.1, 0.1, 128)
+    params = layer.init(jax.random.PRNGKey(0), tokens @ W + b)
+    folded = layer.apply(params, tokens, (W, b))
+    np.testing.assert_allclose(np.asarray(folded), np.asarray(layer.apply(params, tokens @ W + b)), rtol=1e-4,
+                               atol=1e-4)
+
+
 @pytest.mark.parametrize("encoder", ENCODERS)
 def test_every_encoder_builds_and_runs(encoder):
     net = ActorCritic(encoder=encoder)

@@ -23,6 +23,13 @@ class PointMass:
 
     action_size = 2
     config = SimpleNamespace(episode_length=30, reward=RewardConfig())
+    data = jnp.zeros(())  # nothing object-specific
+
+    def bind(self, data):
+        return self
+
+    def signature(self):
+        return ("point_mass",)
 
     def _obs(self, x):
         return Obs(state=x, history=jnp.zeros((2, 4)), aux=jnp.zeros(1), privileged=jnp.zeros(1))

@@ -22,7 +22,7 @@ def _forces(task, steps=10, n=2):
 
         def body(s, _):
             s = step(s, jnp.zeros((n, 51)))
-            return s, (jax.vmap(task.backend.kinematics)(s.physics).force, s.obs)
+            return s, (jax.vmap(task.kinematics)(s.physics).force, s.obs)
 
         return jax.lax.scan(body, s, None, length=steps)[1]
 

@@ -128,9 +128,9 @@ def test_non_finite_world_is_reset_and_counted_without_poisoning_others(drawer_t
         name, scene, substeps = real.name, real.scene, real.substeps
         reset_state, kinematics = real.reset_state, real.kinematics
 
-        def step(self, ps, ctrl, damping, friction):
-            out = real.step(ps, ctrl, damping, friction)
-            bad = damping > 50
+        def step(self, data, ps, ctrl, fields):
+            out = real.step(data, ps, ctrl, fields)
+            bad = fields["dof_damping"][data.layout.target_dof] > 50
             return jax.tree.map(lambda x: jnp.where(bad, jnp.nan, x), out)
 
     task.backend = Poison()
