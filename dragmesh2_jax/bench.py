@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.task.env import PullTask, make_batched
 
 
@@ -31,7 +32,7 @@ def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     """Time ``steps`` control steps of ``num_envs`` worlds with random actions (compile timed separately)."""
     reset, step = make_batched(task)
     keys = jax.random.split(jax.random.PRNGKey(seed), num_envs)
-    actions = jnp.asarray(np.random.default_rng(seed).uniform(-1, 1, (steps, num_envs, 51)).astype(np.float32))
+    actions = jnp.asarray(np.random.default_rng(seed).uniform(-1, 1, (steps, num_envs, NUM_DOFS)).astype(np.float32))
 
     @jax.jit
     def run(keys, actions):
@@ -84,3 +85,39 @@ def bench_train(trainer, epochs: int, runs: int = 1) -> dict:
             "s_per_epoch": round(per, 4), "env_steps_per_s": round(steps / per, 1),
             "physics_steps_per_s": round(steps * trainer.task.substeps / per, 1),
             "budget_s": round(first + (PAPER_EPOCHS - 1) * per, 1), **machine()}
+
+
+def bench_soak(task: PullTask, dampings: list[float], num_envs: int, steps: int, seed: int = 0) -> list[dict]:
+    """Random actions in [-1, 1] for ``steps`` control steps in ``num_envs`` worlds per damping multiplier, all in
+    one rollout: per damping the worlds whose physics went non-finite (each is reset and counted, the rest of the
+    batch goes on) and whether every world's final state is finite."""
+    n = len(dampings) * num_envs
+    scales = jnp.repeat(jnp.asarray(dampings, jnp.float32), num_envs)
+    reset, step = make_batched(task)
+
+    @jax.jit
+    def run(key):
+        k_reset, k_act = jax.random.split(key)
+        s = reset(jax.random.split(k_reset, n), scales)
+
+        def body(s, k):
+            s = step(s, jax.random.uniform(k, (n, NUM_DOFS), minval=-1.0, maxval=1.0))
+            return s, (s.metrics["nonfinite"], s.done)
+
+        s, (bad, done) = jax.lax.scan(body, s, jax.random.split(k_act, steps))
+        finite = jnp.all(jnp.stack([jnp.all(jnp.isfinite(x.reshape(n, -1)), axis=1)
+                                    for x in jax.tree.leaves(s.obs)]), axis=0)
+        return bad.sum(0), done.sum(0), finite
+
+    t0 = time.perf_counter()
+    bad, episodes, finite = (np.asarray(x) for x in jax.device_get(run(jax.random.PRNGKey(seed))))
+    wall = time.perf_counter() - t0
+    rows = []
+    for i, d in enumerate(dampings):
+        w = slice(i * num_envs, (i + 1) * num_envs)
+        rows.append({"object": task.scene.obj.object_id, "backend": task.backend.name, "damping": d,
+                     "worlds": num_envs, "physics_steps": num_envs * steps * task.substeps,
+                     "nonfinite_events": int(bad[w].sum()), "nonfinite_worlds": int((bad[w] > 0).sum()),
+                     "episodes": int(episodes[w].sum()), "final_state_finite": bool(finite[w].all()),
+                     "wall_s_all_dampings": round(wall, 2)})
+    return rows

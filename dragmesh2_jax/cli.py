@@ -8,11 +8,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.runs import load_run, load_task, make_trainer, parse_floats, ppo_from_meta, run_meta
+from dragmesh2_jax.runs import eval_task, load_run, load_task, make_trainer, parse_floats, run_meta, trainer_from_record
 
 
 def _scene_config(args):
@@ -90,7 +89,7 @@ def cmd_trajectory(args) -> int:
     if args.render and not args.render.endswith(".gif"):
         raise DragMeshError(f"{args.render}: only .gif videos are supported")
     obj = load_gapartnet(args.object)
-    traj = generate(obj, seed=args.seed)
+    traj = generate(obj)
     write_trajectory(traj, args.out)
     q = traj.header["quality"]
     blocks = ", ".join(f"{p} {b - a}" for p, a, b in traj.phase_blocks())
@@ -108,7 +107,7 @@ def cmd_trajectory(args) -> int:
 def cmd_dataset(args) -> int:
     from dragmesh2_jax.trajectory.dataset import build_dataset
 
-    res = build_dataset(args.objects, args.out, seed=args.seed, progress=not args.quiet)
+    res = build_dataset(args.objects, args.out, progress=not args.quiet)
     print(Path(res.summary).read_text())
     print(f"manifest {res.manifest}; {len(res.records) - len(res.failures)} of {len(res.records)} passed")
     return 0
@@ -150,6 +149,27 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_bench_soak(args) -> int:
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.bench import bench_soak
+
+    dampings = parse_floats(args.damping, "--damping", minimum=0.0)
+    rows = []
+    for obj in args.objects or [str(default_object())]:
+        task = load_task(obj, None, args.backend, args.impl)
+        rows += bench_soak(task, dampings, args.num_envs, args.steps, args.seed)
+    for r in rows:
+        print(f"{r['object']:>20s} x{r['damping']:<4g} {r['physics_steps']:8d} physics steps  non-finite worlds "
+              f"{r['nonfinite_worlds']:3d} ({r['nonfinite_events']} events)  episodes {r['episodes']:4d}  final state "
+              f"{'finite' if r['final_state_finite'] else 'NOT FINITE'}", file=sys.stderr)
+    total = sum(r["physics_steps"] for r in rows)
+    print(f"{total} physics steps, {sum(r['nonfinite_worlds'] for r in rows)} worlds went non-finite "
+          "(each isolated and reset)", file=sys.stderr)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    return 0 if all(r["final_state_finite"] for r in rows) else 1
+
+
 def cmd_bench_train(args) -> int:
     from dragmesh2_jax.assets.procedural import default_object
     from dragmesh2_jax.bench import bench_train
@@ -188,9 +208,8 @@ def cmd_train(args) -> int:
     record = Path(args.out) / (f"seed_{seeds[0]}" if seeds else "")
     if args.resume:
         meta = run_meta(record)
-        ppo = {**ppo_from_meta(meta), **({"epochs": args.epochs} if args.epochs else {})}
-        trainer = make_trainer(meta["object"], str(record / meta["trajectory"]), meta["method"],
-                               args.backend, args.impl, finetune=meta.get("finetune"), **ppo)
+        trainer = trainer_from_record(record, args.backend, args.impl,
+                                      **({"epochs": args.epochs} if args.epochs else {}))
     else:
         trainer = make_trainer(args.object, args.trajectory, args.method, args.backend, args.impl,
                                epochs=args.epochs, num_envs=args.num_envs, seed=args.seed,
@@ -228,8 +247,6 @@ def cmd_finetune(args) -> int:
 def cmd_evaluate(args) -> int:
     from dragmesh2_jax.evaluation.evaluate import MODES, evaluate, markdown_table
     from dragmesh2_jax.io import atomic_write_json, atomic_write_text
-    from dragmesh2_jax.runs import eval_task
-
     modes = [m.strip() for m in args.mode.split(",") if m.strip()]
     bad = [m for m in modes if m not in MODES]
     if bad or not modes:
@@ -250,94 +267,24 @@ def cmd_evaluate(args) -> int:
 
 def cmd_demo(args) -> int:
     """The main job on the built-in default: trajectory -> PICA training -> evaluation x1/x2/x4 -> report."""
-    import jax
+    from dragmesh2_jax.demo import run_demo
 
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
-    from dragmesh2_jax.io import atomic_write_json, atomic_write_text
-    from dragmesh2_jax.ppo.runner import load_checkpoint, train
-    from dragmesh2_jax.runs import eval_task, resolve_checkpoint
-
-    gpu = jax.default_backend() != "cpu"
-    epochs = args.epochs or (150 if gpu else 60)
-    out = Path(args.out)
-    folder = str(args.object or default_object())
-    print(f"dragmesh2 demo: trajectory -> PICA ({epochs} epochs x 64 envs x 32 steps) -> evaluation at damping "
-          f"x1/x2/x4; {'GPU: full preset' if gpu else 'CPU: small preset, about 3-5 minutes on 2 cores'}",
-          file=sys.stderr)
-    t0 = time.time()
-    trainer = make_trainer(folder, args.trajectory, "pica", args.backend, "jax", epochs=epochs, seed=args.seed)
-    traj = trainer.task.traj
-    if (out / "log.jsonl").exists():
-        raise DragMeshError(f"{out}: already holds a demo run (choose another --out)")
-    ts, rows = train(trainer, out, folder, progress=not args.quiet, save_every=max(epochs // 3, 1))
-    ck = resolve_checkpoint(out)
-    result = evaluate(trainer, load_checkpoint(ts, ck), [1.0, 2.0, 4.0], ["det", "stoch"], episodes=20,
-                      seed=args.seed, task=eval_task(trainer.task))
-    result["checkpoint"] = str(ck)
-    atomic_write_json(out / f"eval_{ck.stem}.json", result)
-    _plot_success(result, out / "success_vs_damping.png")
-    _grasp_picture(trainer.task, out / "grasp.png")
-    q = traj.header.get("quality", {})
-    report = [
-        f"# DragMesh-2 demo: PICA on {trainer.task.scene.obj.object_id} ({trainer.task.scene.obj.category})", "",
-        f"- object: `{folder}`; target `{trainer.task.scene.obj.target.joint.name}` "
-        f"({'revolute' if trainer.task.scene.ids.target_is_revolute else 'prismatic'})",
-        f"- reference trajectory: {len(traj.frames)} frames, quality gate {'passed' if q.get('passed') else 'n/a'}; "
-        f"q_start {traj.q_start:.4f}, q_done {traj.q_done:.4f}, q_goal {traj.q_goal:.4f}",
-        f"- training: {epochs} epochs x {trainer.config.num_envs} envs x {trainer.config.rollout_len} steps on the "
-        f"{trainer.task.backend.name} backend; final training success {rows[-1]['success']:.2f}, "
-        f"{rows[-1]['seconds']:.0f} s",
-        f"- wall time (all stages): {time.time() - t0:.0f} s on {jax.default_backend()}", "",
-        f"## Evaluation of `{ck.name}` (20 episodes per cell, each from a perturbed expert grasp; 95% Wilson "
-        "intervals)", "", markdown_table(result), "",
-        "![success vs damping](success_vs_damping.png)", "", "The expert grasp state every episode starts from:",
-        "", "![expert grasp](grasp.png)", "",
-    ]
-    atomic_write_text(out / "report.md", "\n".join(report))
-    print("\n".join(report))
-    print(f"report: {out / 'report.md'}", file=sys.stderr)
+    report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed,
+                      progress=not args.quiet)
+    print(report.read_text())
+    print(f"report: {report}", file=sys.stderr)
     return 0
 
 
-def _grasp_picture(task, path: Path) -> str:
-    import mujoco
+def cmd_video(args) -> int:
+    from dragmesh2_jax.render import render_policy_video
 
-    from dragmesh2_jax.render import render_png
-
-    scene, traj = task.scene, task.traj
-    d = scene.initial_data()
-    d.qpos[scene.ids.hand_qpos] = traj.frames[traj.drag_start].hand_q
-    d.qpos[scene.ids.target_qpos] = traj.frames[traj.drag_start].joint_positions[traj.target_index]
-    mujoco.mj_forward(scene.model, d)
-    return render_png(scene.model, d, path, target=scene.handle.centre)
-
-
-def _plot_success(result: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from dragmesh2_jax.io import atomic_write_bytes
-
-    fig, ax = plt.subplots(figsize=(5, 3.5))
-    for mode in ("det", "stoch"):
-        rs = [r for r in result["cells"] if r["mode"] == mode]
-        ax.plot([r["damping"] for r in rs], [r["success_rate"] for r in rs], "o-", label=mode)
-    ax.set_xscale("log", base=2)
-    ax.set_xlabel("damping multiplier")
-    ax.set_ylabel("success rate")
-    ax.set_ylim(-0.05, 1.05)
-    ax.set_title(f"{result['method']} on {result['object_id']}")
-    ax.legend()
-    fig.tight_layout()
-    import io as _io
-
-    buf = _io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
-    plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())
+    trainer, ts, _, ck = load_run(args.checkpoint, args.backend, args.impl)
+    dampings = parse_floats(args.damping, "--damping", minimum=0.0)
+    path, used = render_policy_video(eval_task(trainer.task, exact_reset=True), trainer.make_policy(True),
+                                     trainer.policy_params(ts), dampings, args.out, every=args.every)
+    print(f"{path}: det policy of {ck} at damping {', '.join(f'x{d:g}' for d in dampings)} ({used} renderer)")
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -366,7 +313,6 @@ def build_parser() -> argparse.ArgumentParser:
     pt = sub.add_parser("trajectory", help="generate one reference trajectory (exit 1 if it fails the gate)")
     pt.add_argument("--object", required=True)
     pt.add_argument("--out", required=True)
-    pt.add_argument("--seed", type=int, default=0)
     pt.add_argument("--render", metavar="FILE.gif", help="write a video of the executed trajectory")
     pt.set_defaults(func=cmd_trajectory)
 
@@ -375,7 +321,6 @@ def build_parser() -> argparse.ArgumentParser:
     pb = dsub.add_parser("build", help="one trajectory per object folder; resumable")
     pb.add_argument("--objects", nargs="+", required=True, help="object folders or folders of object folders")
     pb.add_argument("--out", required=True)
-    pb.add_argument("--seed", type=int, default=0)
     pb.add_argument("--quiet", action="store_true")
     pds.set_defaults(func=cmd_dataset)
 
@@ -410,6 +355,15 @@ def build_parser() -> argparse.ArgumentParser:
     pbtr.add_argument("--json", action="store_true")
     _add_backend_args(pbtr)
     pbtr.set_defaults(func=cmd_bench_train)
+    pbs = bsub.add_parser("soak", help="random actions at damping x1..x8: worlds that go non-finite (isolated)")
+    pbs.add_argument("--objects", nargs="+", help="object folders (default: the packaged drawer)")
+    pbs.add_argument("--damping", default="1,2,4,8")
+    pbs.add_argument("--num-envs", type=int, default=64, help="worlds per damping")
+    pbs.add_argument("--steps", type=int, default=250, help="control steps per world")
+    pbs.add_argument("--seed", type=int, default=0)
+    pbs.add_argument("--json", action="store_true")
+    _add_backend_args(pbs)
+    pbs.set_defaults(func=cmd_bench_soak)
 
     ptr = sub.add_parser("train", help="train a policy with PPO")
     ptr.add_argument("--method", default="pica", help="pica | state_only | flat_history | gru | transformer | "
@@ -446,7 +400,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     pev = sub.add_parser("evaluate", help="evaluate a checkpoint: damping x mode cells, robustness summary")
     pev.add_argument("--checkpoint", required=True,
-                     help="checkpoints/*.npz of a run, or the run folder (its best_robust checkpoint, else final)")
+                     help="a run folder (its best_robust checkpoint, else final) or one of its checkpoints/*")
     pev.add_argument("--damping", default="1,2,4")
     pev.add_argument("--mode", default="det,stoch")
     pev.add_argument("--episodes", type=int, default=20)
@@ -466,6 +420,14 @@ def build_parser() -> argparse.ArgumentParser:
     pd.add_argument("--quiet", action="store_true")
     pd.add_argument("--backend", default="auto")
     pd.set_defaults(func=cmd_demo)
+
+    pv = sub.add_parser("video", help="a trained policy's rollouts at several dampings, side by side")
+    pv.add_argument("--checkpoint", required=True, help="run folder (best_robust, else final) or checkpoint file")
+    pv.add_argument("--damping", default="1,2,4")
+    pv.add_argument("--out", default="policy.mp4", help=".mp4 (where mediapy and ffmpeg exist, else GIF) or .gif")
+    pv.add_argument("--every", type=int, default=6, help="control steps between frames")
+    _add_backend_args(pv)
+    pv.set_defaults(func=cmd_video)
     return p
 
 

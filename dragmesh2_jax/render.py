@@ -159,3 +159,80 @@ def render_trajectory_gif(obj, traj, path: str | Path, every: int = 15, width: i
     images[0].save(buf, format="GIF", save_all=True, append_images=images[1:], duration=250, loop=0)
     atomic_write_bytes(path, buf.getvalue())
     return used
+
+
+def policy_rollouts(task, policy, params, dampings: list[float], seed: int = 0) -> list[dict]:
+    """One deterministic-start episode of ``policy`` per damping multiplier (all worlds in one rollout): per
+    damping the hand q (T, 51) and target-joint q (T,) of every step until the episode ended, and how it ended."""
+    import jax
+    import jax.numpy as jnp
+
+    n, T = len(dampings), task.config.episode_length
+    reset, step = jax.vmap(task.reset), jax.vmap(task.step)
+
+    @jax.jit
+    def run(key):
+        state = reset(jax.random.split(key, n), jnp.asarray(dampings, jnp.float32))
+
+        def body(carry, k):
+            s = carry
+            k0 = jax.vmap(task.kinematics)(s.physics)
+            a = policy(params, s.obs, k)
+            s = step(s, a)
+            return s, (k0.hand_q, k0.obj_q, s.done, s.metrics["success"])
+
+        _, out = jax.lax.scan(body, state, jax.random.split(key, T))
+        return out
+
+    hand_q, obj_q, done, success = (np.asarray(x) for x in jax.device_get(run(jax.random.PRNGKey(seed))))
+    rows = []
+    for i, d in enumerate(dampings):
+        end = int(np.argmax(done[:, i])) + 1 if done[:, i].any() else T
+        rows.append({"damping": d, "hand_q": hand_q[:end, i], "obj_q": obj_q[:end, i],
+                     "success": bool(success[end - 1, i]), "steps": end})
+    return rows
+
+
+def render_policy_video(task, policy, params, dampings: list[float], path: str | Path, every: int = 6,
+                        width: int = 360, height: int = 270, seed: int = 0) -> str:
+    """Rollouts of ``policy`` at each damping side by side, one panel per damping (labelled with the multiplier
+    and the outcome), every ``every`` control steps; a finished episode holds its last frame. MP4 where
+    ``mediapy`` and ffmpeg are available, else GIF (by ``path``'s suffix: ``.mp4`` falls back to ``.gif``).
+    Returns the path written and the renderer: ``"mujoco"`` (GL) or ``"matplotlib"``."""
+    from PIL import Image, ImageDraw
+
+    rows = policy_rollouts(task, policy, params, dampings, seed)
+    sc = task.scene
+    d = sc.initial_data()
+    T = max(r["steps"] for r in rows)
+    tmp = Path(path).with_suffix(".frame.png")
+    frames, used = [], "matplotlib"
+    for t in [*range(0, T, every), T - 1]:
+        panels = []
+        for r in rows:
+            k = min(t, r["steps"] - 1)
+            d.qpos[sc.ids.hand_qpos], d.qpos[sc.ids.target_qpos] = r["hand_q"][k], r["obj_q"][k]
+            mujoco.mj_forward(sc.model, d)
+            used = render_png(sc.model, d, tmp, target=sc.handle.centre, width=width, height=height)
+            img = Image.open(io.BytesIO(tmp.read_bytes())).convert("RGB")
+            end = "" if t < r["steps"] - 1 else (" opened" if r["success"] else " failed")
+            ImageDraw.Draw(img).text((8, 8), f"damping x{r['damping']:g}  step {k}{end}", fill=(0, 0, 0))
+            panels.append(img)
+        frame = Image.new("RGB", (width * len(panels), height), "white")
+        for i, p in enumerate(panels):
+            frame.paste(p, (i * width, 0))
+        frames.append(frame)
+    tmp.unlink(missing_ok=True)
+    path = Path(path)
+    if path.suffix == ".mp4":
+        try:
+            import mediapy
+
+            mediapy.write_video(str(path), [np.asarray(f) for f in frames], fps=10)
+            return str(path), used
+        except Exception:  # no mediapy or no ffmpeg: a GIF instead
+            path = path.with_suffix(".gif")
+    buf = io.BytesIO()
+    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=100 * every // 6, loop=0)
+    atomic_write_bytes(path, buf.getvalue())
+    return str(path), used

@@ -77,16 +77,13 @@ class SceneIds:
     hand_dof: np.ndarray  # (51,) dof (qvel) addresses
     hand_actuators: np.ndarray  # (51,)
     hand_range: np.ndarray  # (51, 2) joint limits
-    target_joint: int
     target_qpos: int
     target_dof: int
     target_range: tuple[float, float]  # MuJoCo units (m or rad); closed = lower
     target_is_revolute: bool
-    target_body: int
     handle_site: int
     palm_site: int
     wrist_body: int
-    fingertip_sites: np.ndarray  # (5,)
     hand_geoms: np.ndarray
     object_collision_geoms: np.ndarray
 
@@ -233,14 +230,11 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
         hand_dof=np.array([model.jnt_dofadr[i] for i in jid]),
         hand_actuators=np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"act_{n}") for n in names]),
         hand_range=np.array([model.jnt_range[i] for i in jid]),
-        target_joint=tj, target_qpos=int(model.jnt_qposadr[tj]), target_dof=int(model.jnt_dofadr[tj]),
+        target_qpos=int(model.jnt_qposadr[tj]), target_dof=int(model.jnt_dofadr[tj]),
         target_range=(float(lower), float(upper)), target_is_revolute=bool(j.is_revolute),
-        target_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, TARGET_BODY),
         handle_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, HANDLE_SITE),
         palm_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, hand_lib.palm_site_name(config.hand.side)),
         wrist_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, hand_lib.wrist_body_name(config.hand.side)),
-        fingertip_sites=np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, n)
-                                  for n in hand_lib.fingertip_site_names(config.hand.side)]),
         hand_geoms=hand_geoms, object_collision_geoms=obj_geoms,
     )
     stats = {"collision_pieces": int(n_collide), "pieces": int(n_pieces), "max_hull_vertices": int(max_verts),

@@ -24,6 +24,7 @@ import numpy as np
 
 from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+from dragmesh2_jax.ppo.checkpoint import find_checkpoint
 from dragmesh2_jax.ppo.runner import latest_checkpoint, train
 from dragmesh2_jax.runs import eval_task, load_run, make_finetune, make_trainer, parse_floats
 
@@ -35,14 +36,14 @@ def run_one(obj: str, method: str, seed: int, args) -> dict:
         return json.loads(result_path.read_text())
     base, _, recipe = method.partition("+")
     t0 = time.time()
-    if not (run_dir / "checkpoints" / "final.npz").is_file():
+    if not find_checkpoint(run_dir, "final"):
         last = latest_checkpoint(run_dir)
         if last is not None:  # interrupted: resume exactly (a fine-tune's record names its recipe)
             trainer, _, _, _ = load_run(last, args.backend)
             train(trainer, run_dir, obj, resume=True, save_every=25, progress=not args.quiet)
         elif recipe:
             parent = Path(args.out) / Path(obj).name / f"{base}_s{seed}"
-            if not (parent / "checkpoints" / "final.npz").is_file():
+            if not find_checkpoint(parent, "final"):
                 run_one(obj, base, seed, args)
             trainer, start, ck = make_finetune(parent, recipe, args.backend)
             train(trainer, run_dir, obj, save_every=25, progress=not args.quiet, start=start,

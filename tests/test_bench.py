@@ -41,3 +41,30 @@ def test_mjx_bench_runs_to_the_end_at_16_worlds_on_a_cpu():
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr[-2000:]
     assert json.loads(out.stdout)[0]["num_envs"] == 16
+
+
+def test_bench_soak_counts_non_finite_worlds_per_damping_and_keeps_the_batch(drawer_task):
+    import jax
+    import jax.numpy as jnp
+
+    from dragmesh2_jax.bench import bench_soak
+
+    rows = bench_soak(drawer_task, [1.0, 8.0], num_envs=2, steps=5)
+    assert [r["damping"] for r in rows] == [1.0, 8.0] and all(r["final_state_finite"] for r in rows)
+    assert all(r["physics_steps"] == 2 * 5 * drawer_task.substeps for r in rows)
+    task = drawer_task.bind(drawer_task.data)  # the same task, with a backend whose x8 worlds blow up
+    real = task.backend
+
+    class Poison:
+        name, scene, substeps, data = real.name, real.scene, real.substeps, real.data
+        reset_state, kinematics, signature = real.reset_state, real.kinematics, real.signature
+
+        def step(self, data, ps, ctrl, fields):
+            out = real.step(data, ps, ctrl, fields)
+            bad = fields["dof_damping"][data.layout.target_dof] > 50
+            return jax.tree.map(lambda x: jnp.where(bad, jnp.nan, x), out)
+
+    task.backend = Poison()
+    x1, x8 = bench_soak(task, [1.0, 8.0], num_envs=2, steps=3)
+    assert x1["nonfinite_worlds"] == 0 and x8["nonfinite_worlds"] == 2 and x8["nonfinite_events"] == 6
+    assert x1["final_state_finite"] and x8["final_state_finite"]  # isolated: reset, the batch goes on

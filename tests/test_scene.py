@@ -15,7 +15,7 @@ def test_scene_structure(real_scenes, oid):
     assert m.nu == 51 and len(ids.hand_actuators) == 51
     assert m.nv == 52  # 51 hand DoFs + the target joint; other object joints are locked
     # the target joint is passive: no actuator drives it, and it carries the nominal damping
-    assert ids.target_joint not in set(m.actuator_trnid[:, 0])
+    assert m.dof_jntid[ids.target_dof] not in set(m.actuator_trnid[:, 0])
     assert m.dof_damping[ids.target_dof] == pytest.approx(10.0)
     assert ids.target_range[1] > ids.target_range[0]
     # hand geoms never collide with each other; object geoms never with each other

@@ -9,15 +9,12 @@ Each mesh file of a link becomes convex pieces (object frame, unscaled):
 
 from __future__ import annotations
 
-import logging
-import warnings
+import dataclasses
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from dragmesh2_jax.assets.gapartnet import Link, MeshRef
-from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.assets.gapartnet import Link, load_mesh, mesh_files, transform_points
 from dragmesh2_jax.io import atomic_write_bytes, cache_dir, hash_files
 
 GEOMETRY_VERSION = "2"
@@ -48,45 +45,6 @@ class ConvexPiece:
             return self.vertices
         s = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
         return self.box_pos + (s * self.box_half) @ self.box_rot.T
-
-
-def _load_mesh(path: Path):
-    import trimesh
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            logging.getLogger("trimesh").setLevel(logging.ERROR)
-            mesh = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
-    except Exception as e:
-        raise DragMeshError(f"{path}: cannot read mesh ({type(e).__name__}: {e})") from None
-    v = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
-    f = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
-    if len(v) and not np.all(np.isfinite(v)):
-        raise DragMeshError(f"{path}: mesh has non-finite vertices")
-    return v, f
-
-
-def _transform(v: np.ndarray, T: np.ndarray) -> np.ndarray:
-    return v @ T[:3, :3].T + T[:3, 3]
-
-
-def mesh_files(link: Link) -> list[MeshRef]:
-    """Collision meshes of a link (visual ones where it has none), each file once."""
-    refs = [m for m in link.meshes if m.collision] or list(link.meshes)
-    seen, out = set(), []
-    for m in refs:
-        key = (m.path, m.transform.tobytes())
-        if key not in seen:
-            seen.add(key)
-            out.append(m)
-    return out
-
-
-def load_link_vertices(link: Link) -> np.ndarray:
-    """All vertices of a link's meshes in the object frame (closed configuration)."""
-    vs = [_transform(_load_mesh(m.path)[0], link.pose @ m.transform) for m in mesh_files(link)]
-    return np.concatenate(vs) if vs else np.zeros((0, 3))
 
 
 def oriented_box(v: np.ndarray) -> ConvexPiece:
@@ -184,8 +142,8 @@ class GeometryConfig:
     concavity_tolerance: float = 0.1  # decompose only pieces whose deepest vertex lies this far inside the hull
 
     def key(self) -> str:
-        return f"v{GEOMETRY_VERSION}-{self.max_hull_vertices}-{self.decompose_handles}-" \
-               f"{self.max_handle_pieces}-{self.coacd_threshold}"
+        """The collision cache's key part: the version and every field (any change rebuilds the pieces)."""
+        return "-".join([f"v{GEOMETRY_VERSION}", *(str(v) for v in dataclasses.astuple(self))])
 
 
 def link_pieces(link: Link, decompose: bool, config: GeometryConfig = GeometryConfig(),
@@ -205,10 +163,10 @@ def link_pieces(link: Link, decompose: bool, config: GeometryConfig = GeometryCo
             cache.unlink(missing_ok=True)
     pieces: list[ConvexPiece] = []
     for m in refs:
-        v, f = _load_mesh(m.path)
+        v, f = load_mesh(m.path)
         if len(v) == 0:
             continue
-        v = _transform(v, link.pose @ m.transform)
+        v = transform_points(v, link.pose @ m.transform)
         concave = decompose and len(f) and concavity(v) > config.concavity_tolerance
         chunks = _decompose(v, f, config.max_handle_pieces, config.coacd_threshold) if concave else [v]
         pieces.extend(convex_piece(c, config.max_hull_vertices) for c in chunks)

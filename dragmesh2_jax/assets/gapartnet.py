@@ -11,7 +11,10 @@ child) nearest its front face, else any handle nearest the front face, else the 
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import logging
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -137,6 +140,15 @@ class GAPartNetObject:
     @property
     def handles(self) -> tuple[Part, ...]:
         return tuple(p for p in self.parts if p.is_handle)
+
+    def with_target(self, joint_name: str) -> GAPartNetObject:
+        """The same object with the part that ``joint_name`` drives as the target (and that part's handle)."""
+        if joint_name == self.target.joint.name:
+            return self
+        try:
+            return dataclasses.replace(self, target=select_target(list(self.parts), self.joints, joint_name))
+        except DragMeshError as e:
+            raise DragMeshError(f"{self.folder}: {e}") from None
 
     def joint_by_child(self, child: str) -> Joint | None:
         return next((j for j in self.joints if j.child == child), None)
@@ -348,8 +360,6 @@ def read_parts(folder: Path, links: dict[str, Link]) -> list[Part]:
     sem = sem if sem.is_file() else folder / "semantics.txt"
     if not sem.is_file():
         raise DragMeshError(f"{folder}: no link_annotation_gapartnet.json or semantics file to find parts in")
-    from dragmesh2_jax.assets.collision import load_link_vertices
-
     for line in sem.read_text().splitlines():
         toks = line.split()
         if len(toks) < 3 or toks[0] not in links:
@@ -467,8 +477,17 @@ def handle_frame(box: np.ndarray, normal_hint: np.ndarray, source: str, link: st
     )
 
 
-def select_target(parts: list[Part], joints: tuple[Joint, ...]) -> Target:
-    part = select_target_part(parts, joints)
+def select_target(parts: list[Part], joints: tuple[Joint, ...], joint_name: str | None = None) -> Target:
+    """The target part, joint and handle frame: by the Appendix B rule (``select_target_part``), or the part
+    driven by ``joint_name`` (a reference trajectory that moves another part)."""
+    if joint_name is None:
+        part = select_target_part(parts, joints)
+    else:
+        driven = [p for p in parts if not p.is_handle and getattr(driving_joint(p.link, joints), "name", None)
+                  == joint_name]
+        if not driven:
+            raise DragMeshError(f"no annotated part is driven by joint {joint_name!r}")
+        part = driven[0]
     joint = driving_joint(part.link, joints)
     assert joint is not None
     if joint.upper - joint.lower <= 1e-6:
@@ -496,7 +515,8 @@ def load_gapartnet(folder: str | Path) -> GAPartNetObject:
     """Read a GAPartNet / PartNet-Mobility object folder into a :class:`GAPartNetObject`.
 
     Reads ``mobility_annotation_gapartnet.urdf`` (or ``mobility.urdf``), ``link_annotation_gapartnet.json``,
-    ``meta.json`` and the meshes the URDF references; ``mobility_v2.json`` and ``semantics*.txt`` are optional.
+    ``meta.json`` and the meshes the URDF references; ``semantics*.txt`` is optional; ``mobility_v2.json`` is not
+    read (the URDF holds the joints).
     Raises :class:`DragMeshError` (one line, naming the file) on anything unusable.
     """
     folder = Path(folder)
@@ -515,13 +535,50 @@ def load_gapartnet(folder: str | Path) -> GAPartNetObject:
     category = str(meta.get("model_cat", "Unknown"))
     object_id = str(meta.get("anno_id", folder.name))
     parts = read_parts(folder, links)
-    if (folder / "mobility_v2.json").is_file():
-        mob = _read_json(folder / "mobility_v2.json")
-        if not isinstance(mob, list):
-            raise DragMeshError(f"{folder / 'mobility_v2.json'}: expected a list")
     try:
         target = select_target(parts, joints)
     except DragMeshError as e:
         raise DragMeshError(f"{folder}: {e}") from None
     return GAPartNetObject(folder=folder, object_id=object_id, category=category, urdf=urdf, links=links,
                            joints=joints, parts=tuple(parts), target=target, root=root)
+
+
+# ---------------------------------------------------------------------------------- meshes of a link
+def load_mesh(path: Path):
+    """(vertices, faces) of a mesh file; a clear error for an unreadable or non-finite one."""
+    import trimesh
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            logging.getLogger("trimesh").setLevel(logging.ERROR)
+            mesh = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
+    except Exception as e:
+        raise DragMeshError(f"{path}: cannot read mesh ({type(e).__name__}: {e})") from None
+    v = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
+    f = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
+    if len(v) and not np.all(np.isfinite(v)):
+        raise DragMeshError(f"{path}: mesh has non-finite vertices")
+    return v, f
+
+
+def transform_points(v: np.ndarray, T: np.ndarray) -> np.ndarray:
+    return v @ T[:3, :3].T + T[:3, 3]
+
+
+def mesh_files(link: Link) -> list[MeshRef]:
+    """Collision meshes of a link (visual ones where it has none), each file once."""
+    refs = [m for m in link.meshes if m.collision] or list(link.meshes)
+    seen, out = set(), []
+    for m in refs:
+        key = (m.path, m.transform.tobytes())
+        if key not in seen:
+            seen.add(key)
+            out.append(m)
+    return out
+
+
+def load_link_vertices(link: Link) -> np.ndarray:
+    """All vertices of a link's meshes in the object frame (closed configuration)."""
+    vs = [transform_points(load_mesh(m.path)[0], link.pose @ m.transform) for m in mesh_files(link)]
+    return np.concatenate(vs) if vs else np.zeros((0, 3))

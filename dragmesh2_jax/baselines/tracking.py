@@ -8,6 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.task.env import PullTask
 
 
@@ -38,7 +39,7 @@ def track(task: PullTask, dampings: list[float], seed: int = 0, traces: bool = F
 
         def body(carry, target):
             state, finished, success, progress = carry
-            state = jax.vmap(task.step_target)(state, jnp.broadcast_to(target, (n, 51)))
+            state = jax.vmap(task.step_target)(state, jnp.broadcast_to(target, (n, NUM_DOFS)))
             m = state.metrics
             live = ~finished
             success = success | (live & (m["success"] > 0))

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 import flax.linen as nn
 import jax.numpy as jnp
 
+from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.policies.gla import GatedLinearAttention
 
 ENCODERS = ("none", "flat", "gla", "gru", "transformer")
@@ -76,7 +77,7 @@ class ActorCritic(nn.Module):
     state_sizes: Sequence[int] = (512, 512, 256)
     hist_dim: int = 128
     heads: int = 4
-    action_size: int = 51
+    action_size: int = NUM_DOFS
     log_std_init: float = -2.0
     aux_size: int = 4
     critic: str = "shared"

@@ -1,16 +1,16 @@
 """The training run: epochs in Python around the jitted ``Trainer.epoch``; logs, checkpoints, exact resume.
 
 Run folder:
-    run.json               method, task/PPO config, object folder (the trajectory is copied beside it)
+    run.json               the run record (``record.py``): method, PPO/task/scene configs, object, versions
     trajectory.json        the reference trajectory the task was built from
     log.jsonl, log.csv     one row per epoch
+    tb/                    the same scalars (train/*, robust/*) as TensorBoard event files (``tensorboard --logdir``)
     robust.jsonl, robust.csv  the robustness evaluation every ``robust_every`` epochs (paper App. B.3-B.4):
                            det success at x1/x2/x4 from perturbed starts, a few episodes per cell
-    checkpoints/epoch_NNNN.npz  every ``save_every`` epochs; best.npz (by training reward); best_robust.npz
-                           (by mean then worst success over the damping set, ties by lower active clip099);
-                           final.npz
-A checkpoint holds every leaf of the TrainState (params, optimiser, env state, normalisers, rng, epoch), so
-``--resume`` continues exactly where the run stopped.
+    checkpoints/epoch_NNNN every ``save_every`` epochs; best (by training reward); best_robust (by mean then
+                           worst success over the damping set, ties by lower active clip099); final. Orbax
+                           directories (``ppo/checkpoint.py``) of the whole TrainState (params, optimiser, env
+                           state, normalisers, rng, epoch), so ``--resume`` continues exactly where the run stopped.
 
 Several seeds train as one program (:func:`train_runs`: the epoch ``vmap``ped over a run axis, sharded over the
 local devices when there are several); each seed still gets its own run folder of the layout above
@@ -30,7 +30,8 @@ import jax
 import numpy as np
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.io import atomic_write_bytes, atomic_write_json, atomic_write_text
+from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+from dragmesh2_jax.ppo.checkpoint import checkpoint_epoch, find_checkpoint, load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.train import Trainer, TrainState
 from dragmesh2_jax.trajectory.schema import write_trajectory
 
@@ -54,57 +55,18 @@ class RobustSelection:
         return row["mean_success"], row["worst_success"], -row["clip099_active"]
 
 
-def save_checkpoint(ts: TrainState, path: Path) -> Path:
-    leaves = [np.asarray(x) for x in jax.tree.leaves(ts)]
-    buf = io.BytesIO()
-    np.savez(buf, *leaves)
-    return atomic_write_bytes(path, buf.getvalue())
-
-
-def load_checkpoint(template: TrainState, path: Path, keep_env: bool = False) -> TrainState:
-    """Restore ``template``'s structure from ``path``. With ``keep_env`` the environment state is the
-    template's and only the learner (parameters, optimiser, normalisers, rng, epoch) is read: a policy saved
-    under an older environment-state layout still loads for evaluation or a fine-tune (not for exact resume)."""
-    if not Path(path).is_file():
-        raise DragMeshError(f"{path}: no such checkpoint")
-    z = np.load(path)
-    leaves, treedef = jax.tree.flatten(template)
-    index = list(range(len(leaves)))
-    if keep_env and len(z.files) != len(leaves):
-        n_before = len(jax.tree.leaves((template.params, template.opt_state)))
-        n_env = len(jax.tree.leaves(template.env_state))
-        n_after = len(leaves) - n_before - n_env
-        if len(z.files) > n_before + n_after:
-            # (file array, or None = keep the template's leaf) per template leaf
-            index = [*range(n_before), *([None] * n_env), *range(len(z.files) - n_after, len(z.files))]
-    if len(index) != len(leaves) or (not keep_env and len(z.files) != len(leaves)):
-        raise DragMeshError(f"{path}: checkpoint does not match this method/config ({len(z.files)} arrays, "
-                            f"expected {len(leaves)})")
-    new = []
-    for i, ref in zip(index, leaves, strict=True):
-        if i is None:
-            new.append(ref)
-            continue
-        a = z[f"arr_{i}"]
-        if a.shape != np.shape(ref):
-            raise DragMeshError(f"{path}: array {i} has shape {a.shape}, expected {np.shape(ref)}")
-        new.append(jax.numpy.asarray(a, dtype=np.asarray(ref).dtype))
-    return jax.tree.unflatten(treedef, new)
-
-
 def latest_checkpoint(run_dir: Path) -> Path | None:
-    ck = sorted((run_dir / "checkpoints").glob("epoch_*.npz"))
-    return ck[-1] if ck else None
+    cks = [(e, p) for p in (run_dir / "checkpoints").glob("epoch_*") if (e := checkpoint_epoch(p)) is not None]
+    return max(cks)[1] if cks else None
 
 
 def write_run_meta(run_dir: Path, trainer: Trainer, object_dir: str, extra: dict | None = None,
                    seed: int | None = None) -> None:
+    """The run record (``record.make_record``) and the trajectory beside it, written once when the run starts."""
+    from dragmesh2_jax.record import make_record
+
     write_trajectory(trainer.task.traj, run_dir / "trajectory.json")
-    ppo = dataclasses.asdict(trainer.config if seed is None else dataclasses.replace(trainer.config, seed=seed))
-    meta = {**(extra or {}), "method": trainer.method.name, "object": str(Path(object_dir).resolve()),
-            "trajectory": "trajectory.json", "backend": trainer.task.backend.name,
-            "ppo": ppo, "task": json.loads(json.dumps(dataclasses.asdict(trainer.task.config), default=str))}
-    atomic_write_json(run_dir / "run.json", meta)
+    atomic_write_json(run_dir / "run.json", make_record(trainer, object_dir, seed, extra))
 
 
 def robust_evaluator(trainer: Trainer, selection: RobustSelection):
@@ -149,11 +111,11 @@ def _resume_epoch(run_dirs: list[Path]) -> int:
     folders' saves leaves the older epoch the common one)."""
     common = None
     for d in run_dirs:
-        epochs = {int(p.stem.split("_")[1]) for p in (d / "checkpoints").glob("epoch_*.npz")}
+        epochs = {e for p in (d / "checkpoints").glob("epoch_*") if (e := checkpoint_epoch(p)) is not None}
         common = epochs if common is None else common & epochs
     if not common:
         raise DragMeshError(f"{run_dirs[0].parent if len(run_dirs) > 1 else run_dirs[0]}: nothing to resume "
-                            "(no checkpoints/epoch_*.npz common to every run)")
+                            "(no checkpoints/epoch_* common to every run)")
     return max(common)
 
 
@@ -181,7 +143,7 @@ def train_runs(trainer: Trainer, run_dirs: list[Path], seeds: list[int], object_
     if resume:
         e = _resume_epoch(run_dirs)
         template = take_run(trainer.init_runs(seeds[:1]), 0)
-        states = [load_checkpoint(template, d / "checkpoints" / f"epoch_{e:04d}.npz") for d in run_dirs]
+        states = [load_checkpoint(template, find_checkpoint(d, f"epoch_{e:04d}")) for d in run_dirs]
         ts = jax.tree.map(lambda *x: jax.numpy.stack(x), *states)
         rows = [_read_jsonl(d / "log.jsonl", e) for d in run_dirs]
         robust_rows = [_read_jsonl(d / "robust.jsonl", e) for d in run_dirs]
@@ -196,6 +158,9 @@ def train_runs(trainer: Trainer, run_dirs: list[Path], seeds: list[int], object_
     best_robust = [max((selection.score(r) for r in rr), default=None) for rr in robust_rows]
     robust = robust_evaluator(trainer, selection) if selection.every > 0 else None
     first = int(ts.epoch[0])
+    from tensorboardX import SummaryWriter
+
+    boards = [SummaryWriter(str(d / "tb")) for d in run_dirs]
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     name = trainer.method.name + (f" x {R} seeds" if R > 1 else "")
@@ -213,28 +178,37 @@ def train_runs(trainer: Trainer, run_dirs: list[Path], seeds: list[int], object_
                        "env_steps": e * c.num_envs * c.rollout_len}
                 rows[i].append(row)
                 _write_table(d / "log", rows[i], LOG_KEYS)
+                _board(boards[i], "train", row)
                 one = take_run(ts, i)
                 if e % save_every == 0:
-                    save_checkpoint(one, d / "checkpoints" / f"epoch_{e:04d}.npz")
+                    save_checkpoint(one, d / "checkpoints" / f"epoch_{e:04d}")
                 if row["reward"] > best[i]:
                     best[i] = row["reward"]
-                    save_checkpoint(one, d / "checkpoints" / "best.npz")
+                    save_checkpoint(one, d / "checkpoints" / "best")
                 if robust is not None and (e % selection.every == 0 or e == c.epochs):
                     r = robust(one)
                     r["selected"] = best_robust[i] is None or selection.score(r) > best_robust[i]
                     if r["selected"]:
                         best_robust[i] = selection.score(r)
-                        save_checkpoint(one, d / "checkpoints" / "best_robust.npz")
+                        save_checkpoint(one, d / "checkpoints" / "best_robust")
                     robust_rows[i].append(r)
                     _write_table(d / "robust", robust_rows[i], ROBUST_KEYS)
+                    _board(boards[i], "robust", r)
                 if log_fn:
                     log_fn(row)
             mean = {k: float(np.mean(m[k])) for k in ("reward", "success", "progress", "clip099")}
             bar.update(task, completed=e, stats=f"reward {mean['reward']:.2f}  success {mean['success']:.2f}  "
                                                   f"progress {mean['progress']:.2f}  clip099 {mean['clip099']:.2f}")
     for i, d in enumerate(run_dirs):
-        save_checkpoint(take_run(ts, i), d / "checkpoints" / "final.npz")
+        save_checkpoint(take_run(ts, i), d / "checkpoints" / "final")
+        boards[i].close()
     return ts, rows
+
+
+def _board(board, group: str, row: dict) -> None:
+    for k, v in row.items():
+        if k != "epoch" and isinstance(v, int | float):
+            board.add_scalar(f"{group}/{k}", float(v), row["epoch"])
 
 
 def train(trainer: Trainer, run_dir: str | Path, object_dir: str, resume: bool = False, save_every: int = 10,

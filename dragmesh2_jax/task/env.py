@@ -120,7 +120,8 @@ def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
     names = [j.name for j in obj.movable_joints]
     if names[traj.target_index] != obj.target.joint.name:
         raise DragMeshError(f"trajectory moves joint {names[traj.target_index]} but the target of object "
-                            f"{obj.object_id} is {obj.target.joint.name}")
+                            f"{obj.object_id} is {obj.target.joint.name} (build the scene from "
+                            f"obj.with_target({names[traj.target_index]!r}); runs.load_task does)")
     if not traj.q_max - traj.q_min > 1e-6:
         raise DragMeshError("trajectory never moves its target joint (zero motion range)")
 

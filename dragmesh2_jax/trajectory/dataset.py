@@ -65,7 +65,7 @@ class DatasetResult:
         return [r for r in self.records if not r["enabled"]]
 
 
-def _build_one(folder: Path, sample_id: str, out: Path, params: GeneratorParams, seed: int) -> dict:
+def _build_one(folder: Path, sample_id: str, out: Path, params: GeneratorParams) -> dict:
     t0 = time.time()
     rec = {"sample_id": sample_id, "object_id": folder.name, "folder": str(folder), "trajectory": "",
            "enabled": False, "category": "", "joint_type": "", "passed": False, "achieved_opening": "",
@@ -74,7 +74,7 @@ def _build_one(folder: Path, sample_id: str, out: Path, params: GeneratorParams,
         obj = load_gapartnet(folder)
         rec.update(object_id=obj.object_id, category=obj.category,
                    joint_type="revolute" if obj.target.joint.is_revolute else "prismatic")
-        traj = generate(obj, params, seed=seed)
+        traj = generate(obj, params)
         q = traj.header["quality"]
         path = out / "trajectories" / f"{sample_id}.json"
         write_trajectory(traj, path)
@@ -91,7 +91,7 @@ def _build_one(folder: Path, sample_id: str, out: Path, params: GeneratorParams,
 
 
 def build_dataset(objects: list[str | Path], out: str | Path, params: GeneratorParams = GeneratorParams(),
-                  seed: int = 0, progress: bool = True) -> DatasetResult:
+                  progress: bool = True) -> DatasetResult:
     """Generate a trajectory for every object folder; objects already recorded in ``out`` are skipped."""
     out = Path(out)
     folders = find_object_folders(list(objects))
@@ -112,7 +112,7 @@ def build_dataset(objects: list[str | Path], out: str | Path, params: GeneratorP
             task = bar.add_task("trajectories", total=len(todo))
             for folder, sid, rpath in todo:
                 bar.update(task, description=f"trajectories [{sid}]")
-                rec = _build_one(folder, sid, out, params, seed)
+                rec = _build_one(folder, sid, out, params)
                 atomic_write_json(rpath, rec)
                 records.append(rec)
                 bar.advance(task)

@@ -249,8 +249,9 @@ def _target_index(scene: Scene) -> int:
 
 
 def generate(obj: GAPartNetObject, params: GeneratorParams = GeneratorParams(), scene_config: SceneConfig | None = None,
-             seed: int = 0, scene: Scene | None = None) -> Trajectory:
-    """Plan and execute a trajectory for ``obj``; returns it with a header holding the quality gate."""
+             scene: Scene | None = None) -> Trajectory:
+    """Plan and execute a trajectory for ``obj``; returns it with a header holding the quality gate. Deterministic:
+    the palm placements are tried in a fixed order, so there is no seed."""
     t0 = time.time()
     scene = scene or build_scene(obj, scene_config or SceneConfig())
     extent = drag_extent(scene, params)
@@ -282,7 +283,7 @@ def generate(obj: GAPartNetObject, params: GeneratorParams = GeneratorParams(), 
                   "frame_dt": scene.config.timestep * params.substeps, "damping": scene.config.damping},
         "generator": {"version": GENERATOR_VERSION, "params": _jsonable(asdict(params)), "placement": k,
                       "placement_params": asdict(placement), "attempts": attempts},
-        "seed": seed, "quality": q, "wall_s": round(time.time() - t0, 3),
+        "quality": q, "wall_s": round(time.time() - t0, 3),
         "hand": {"side": scene.config.hand.side, "dof_names": list(hand_lib.dof_names(scene.config.hand.side))},
     }
     return Trajectory(frames=tuple(frames), header=header)

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import atomic_write_text
 
@@ -149,8 +150,8 @@ def _frame(d, i: int, where: str) -> Frame:
     if not isinstance(jp, list) or not jp:
         raise DragMeshError(f"{where}: frame {i} field joint_positions must be a non-empty list")
     ht = d.get("hand_target")
-    if ht is not None and (not isinstance(ht, list) or len(ht) != 51):
-        raise DragMeshError(f"{where}: frame {i} field hand_target must be a list of 51 numbers")
+    if ht is not None and (not isinstance(ht, list) or len(ht) != NUM_DOFS):
+        raise DragMeshError(f"{where}: frame {i} field hand_target must be a list of {NUM_DOFS} numbers")
     try:
         jp = tuple(float(x) for x in jp)
         ht = tuple(float(x) for x in ht) if ht is not None else None

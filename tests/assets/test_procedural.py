@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets import procedural
-from dragmesh2_jax.assets.collision import load_link_vertices
-from dragmesh2_jax.assets.gapartnet import load_gapartnet, opening_direction
+from dragmesh2_jax.assets.gapartnet import load_gapartnet, load_link_vertices, opening_direction
 from dragmesh2_jax.errors import DragMeshError
 
 KIND = {"drawer": ("slider_drawer", False), "side_door": ("hinge_door", True),

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.policies.methods import get_method
+from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.config import PPOConfig
-from dragmesh2_jax.ppo.runner import load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.train import Trainer, gae
 from dragmesh2_jax.task.config import RewardConfig
 from dragmesh2_jax.task.env import Obs, State
@@ -106,8 +106,8 @@ def test_same_seed_same_metrics_and_exact_resume(small_trainer, tmp_path):
     # interrupted after one epoch, saved, restored into a fresh template, continued
     b, mb = t.epoch(b)
     assert {k: float(v) for k, v in mb.items()} == rows_a[0]
-    save_checkpoint(b, tmp_path / "ck.npz")
-    b = load_checkpoint(t.init(seed=123), tmp_path / "ck.npz")
+    save_checkpoint(b, tmp_path / "ck")
+    b = load_checkpoint(t.init(seed=123), tmp_path / "ck")
     for i in (1, 2):
         b, mb = t.epoch(b)
         assert {k: float(v) for k, v in mb.items()} == rows_a[i]
@@ -136,7 +136,7 @@ def test_policy_trained_on_one_backend_loads_on_the_other(small_trainer, tmp_pat
     from dragmesh2_jax.runs import load_run
 
     ts, _ = train(small_trainer, tmp_path / "run", str(default_object()), progress=False)
-    trainer, loaded, _, _ = load_run(str(tmp_path / "run" / "checkpoints" / "final.npz"), backend="mjx")
+    trainer, loaded, _, _ = load_run(str(tmp_path / "run" / "checkpoints" / "final"), backend="mjx")
     assert trainer.task.backend.name == "mjx"
     for x, y in zip(jax.tree.leaves(ts.params), jax.tree.leaves(loaded.params), strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))

@@ -115,7 +115,7 @@ def test_multi_seed_run_writes_a_folder_per_seed_and_resumes_exactly(tmp_path):
     for seed in (3, 4):
         run = tmp_path / "full" / f"seed_{seed}"
         assert json.loads((run / "run.json").read_text())["ppo"]["seed"] == seed
-        assert (run / "checkpoints" / "final.npz").is_file()
+        assert (run / "checkpoints" / "final" / "env").is_dir()
     one = Trainer(trainer.task, trainer.method, PPOConfig(**{**TINY.__dict__, "epochs": 1}))
     train_seeds(one, tmp_path / "cut", [3, 4], OBJ, **quiet)  # "interrupted" after one epoch
     resumed, rows2 = train_seeds(trainer, tmp_path / "cut", [3, 4], OBJ, resume=True, **quiet)

@@ -31,16 +31,40 @@ def test_training_keeps_best_robust_and_its_evaluation_curve(trained_run):
     assert {"mean_success", "worst_success", "clip099_active", "success_x1", "success_x2", "success_x4"} <= set(rows[0])
     assert rows[0]["selected"]  # the first evaluation is the best so far
     assert (trained_run / "robust.csv").is_file()
-    assert resolve_checkpoint(trained_run).name == "best_robust.npz"  # evaluate/demo default
+    assert resolve_checkpoint(trained_run).name == "best_robust"  # evaluate/demo default
     _, ts, _, ck = load_run(trained_run, backend="mujoco")
     best = max(rows, key=lambda r: (r["mean_success"], r["worst_success"], -r["clip099_active"]))
-    assert int(ts.epoch) == best["epoch"] and ck.name == "best_robust.npz"
+    assert int(ts.epoch) == best["epoch"] and ck.name == "best_robust"
+
+
+def _tensorboard_scalars(folder) -> dict[str, list[int]]:
+    """tag -> steps, read from TensorBoard event files (TFRecord framing: length, crc, event, crc)."""
+    import struct
+
+    from tensorboardX.proto import event_pb2
+
+    out: dict[str, list[int]] = {}
+    for f in sorted(folder.glob("events.out.tfevents.*")):
+        data, i = f.read_bytes(), 0
+        while i < len(data):
+            (n,) = struct.unpack("<Q", data[i:i + 8])
+            event = event_pb2.Event.FromString(data[i + 12:i + 12 + n])
+            i += 12 + n + 4
+            for v in event.summary.value:
+                out.setdefault(v.tag, []).append(event.step)
+    return out
+
+
+def test_tensorboard_scalars_beside_the_logs(trained_run):
+    tags = _tensorboard_scalars(trained_run / "tb")
+    assert tags["train/reward"] == [1, 2, 3, 4] and tags["train/clip099"] == [1, 2, 3, 4]
+    assert tags["robust/mean_success"] == [2, 4]
 
 
 def test_every_finetune_preset_builds_from_a_checkpoint(trained_run):
     for name in FINETUNES:
         trainer, start, parent = make_finetune(trained_run, name, backend="mujoco", epochs=1)
-        assert trainer.config.epochs == int(start.epoch) + 1 and parent.name == "best_robust.npz"
+        assert trainer.config.epochs == int(start.epoch) + 1 and parent.name == "best_robust"
     trainer, _, _ = make_finetune(trained_run, "damp_2_4", backend="mujoco")
     assert trainer.task.config.damping_range == (2.0, 4.0) and trainer.config.epochs == int(start.epoch) + 50
 
