@@ -14,7 +14,7 @@ from dragmesh2_jax.io import atomic_write_bytes, atomic_write_json, atomic_write
 DEMO_DAMPINGS = [1.0, 2.0, 4.0]
 DEMO_EPISODES = 20  # per evaluation cell
 CPU_EPOCHS, GPU_EPOCHS = 60, 150  # a small preset on a CPU, the paper's budget on an accelerator
-VIDEO_EVERY = 20  # control steps between video frames
+VIDEO_EVERY = 30  # control steps between video frames (0.5 s)
 
 
 def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | None = None, epochs: int | None = None,

@@ -194,11 +194,12 @@ def policy_rollouts(task, policy, params, dampings: list[float], seed: int = 0) 
 
 
 def render_policy_video(task, policy, params, dampings: list[float], path: str | Path, every: int = 6,
-                        width: int = 360, height: int = 270, seed: int = 0) -> str:
+                        width: int = 360, height: int = 270, seed: int = 0) -> tuple[str, str]:
     """Rollouts of ``policy`` at each damping side by side, one panel per damping (labelled with the multiplier
-    and the outcome), every ``every`` control steps; a finished episode holds its last frame. MP4 where
-    ``mediapy`` and ffmpeg are available, else GIF (by ``path``'s suffix: ``.mp4`` falls back to ``.gif``).
-    Returns the path written and the renderer: ``"mujoco"`` (GL) or ``"matplotlib"``."""
+    and the outcome), every ``every`` control steps, played in real time; a finished episode holds its last frame
+    (the state before its last step). MP4 where ``mediapy`` and ffmpeg are available, else GIF (by ``path``'s
+    suffix: ``.mp4`` falls back to ``.gif``). Returns the path written and the renderer: ``"mujoco"`` (GL) or
+    ``"matplotlib"``."""
     from PIL import Image, ImageDraw
 
     rows = policy_rollouts(task, policy, params, dampings, seed)
@@ -223,16 +224,17 @@ def render_policy_video(task, policy, params, dampings: list[float], path: str |
             frame.paste(p, (i * width, 0))
         frames.append(frame)
     tmp.unlink(missing_ok=True)
+    frame_s = every * task.config.control_dt  # real time between frames
     path = Path(path)
     if path.suffix == ".mp4":
         try:
             import mediapy
 
-            mediapy.write_video(str(path), [np.asarray(f) for f in frames], fps=10)
+            mediapy.write_video(str(path), [np.asarray(f) for f in frames], fps=1.0 / frame_s)
             return str(path), used
         except Exception:  # no mediapy or no ffmpeg: a GIF instead
             path = path.with_suffix(".gif")
     buf = io.BytesIO()
-    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=100 * every // 6, loop=0)
+    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=round(1000 * frame_s), loop=0)
     atomic_write_bytes(path, buf.getvalue())
     return str(path), used

@@ -50,7 +50,7 @@ def test_bench_soak_counts_non_finite_worlds_per_damping_and_keeps_the_batch(dra
     from dragmesh2_jax.bench import bench_soak
 
     rows = bench_soak(drawer_task, [1.0, 8.0], num_envs=2, steps=5)
-    assert [r["damping"] for r in rows] == [1.0, 8.0] and all(r["final_state_finite"] for r in rows)
+    assert [r["damping"] for r in rows] == [1.0, 8.0] and all(r["batch_finite"] for r in rows)
     assert all(r["physics_steps"] == 2 * 5 * drawer_task.substeps for r in rows)
     task = drawer_task.bind(drawer_task.data)  # the same task, with a backend whose x8 worlds blow up
     real = task.backend
@@ -67,4 +67,4 @@ def test_bench_soak_counts_non_finite_worlds_per_damping_and_keeps_the_batch(dra
     task.backend = Poison()
     x1, x8 = bench_soak(task, [1.0, 8.0], num_envs=2, steps=3)
     assert x1["nonfinite_worlds"] == 0 and x8["nonfinite_worlds"] == 2 and x8["nonfinite_events"] == 6
-    assert x1["final_state_finite"] and x8["final_state_finite"]  # isolated: reset, the batch goes on
+    assert x1["batch_finite"] and x8["batch_finite"]  # isolated: reset, the batch goes on

@@ -43,7 +43,7 @@ def avoid_lapack_deadlock() -> None:
     from jax._src import xla_bridge
 
     version = tuple(int(x) for x in jaxlib.__version__.split(".")[:2])
-    if version >= (0, 11) or not hasattr(os, "sched_setaffinity"):
+    if version >= (0, 11) or not hasattr(os, "sched_setaffinity") or _accelerator_plugin():
         return
     cpus = os.sched_getaffinity(0)
     if len(cpus) == 1 or _DONE:
@@ -63,6 +63,19 @@ def avoid_lapack_deadlock() -> None:
 
 
 _DONE: list[bool] = []  # pinned (or warned) once per process
+
+
+def _accelerator_plugin() -> bool:
+    """Whether JAX may start an accelerator client here (a CUDA/ROCm plugin is installed and the platforms are
+    not restricted to the CPU): then the pin is not ours to make (an accelerator's host threads need the cores)."""
+    import importlib.util
+    import os
+
+    platforms = os.environ.get("JAX_PLATFORMS") or jax.config.jax_platforms or ""
+    if platforms.strip().lower() == "cpu":
+        return False
+    return any(importlib.util.find_spec(m) is not None for m in ("jax_cuda12_plugin", "jax_cuda13_plugin",
+                                                                "jax_rocm60_plugin", "jax_rocm7_plugin"))
 
 
 class MjxBackend:

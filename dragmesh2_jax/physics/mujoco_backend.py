@@ -14,9 +14,11 @@ control steps; it changes iteration counts, not the converged contact solution.)
 from __future__ import annotations
 
 import copy
+import itertools
 import math
 import os
 import threading
+import weakref
 
 import jax
 import jax.numpy as jnp
@@ -83,7 +85,8 @@ class _HostStepper:
         return last[:, self.qpos_sl], last[:, self.qvel_sl], sensors[:, -1]
 
 
-_HOSTS: list[_HostStepper] = []  # the registry CData.host points into
+_HOSTS: dict[int, _HostStepper] = {}  # the registry CData.host points into; an entry lives as long as its backend
+_NEXT_HOST = itertools.count()
 
 
 #: The process's CPUs at import: the callback may run on an XLA pool thread started on fewer (see
@@ -119,11 +122,13 @@ class MujocoBackend:
                  nthread: int | None = None):
         self.scene, self.substeps = scene, substeps
         self.nthread = nthread or os.cpu_count() or 1
-        _HOSTS.append(_HostStepper(scene, substeps, self.nthread))
+        host = next(_NEXT_HOST)
+        _HOSTS[host] = _HostStepper(scene, substeps, self.nthread)
+        weakref.finalize(self, _HOSTS.pop, host, None)
         ds = [settled_reset(scene, hand_q, obj_q, settle_substeps) for hand_q, obj_q in starts]
         bank = stack_states([CState(qpos=jnp.asarray(d.qpos), qvel=jnp.asarray(d.qvel),
                                     sensors=jnp.asarray(d.sensordata)) for d in ds])
-        self.data = CData(host=jnp.int32(len(_HOSTS) - 1), bank=bank, layout=Layout.of(scene))
+        self.data = CData(host=jnp.int32(host), bank=bank, layout=Layout.of(scene))
 
     def signature(self) -> tuple:
         return self.name, self.substeps, self.nthread

@@ -35,9 +35,12 @@ def save_checkpoint(ts: TrainState, path: str | Path) -> Path:
     tmp = path.with_name(f".{path.name}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
     ck = _checkpointer()
-    ck.save(tmp / "learner", ts.replace(env_state=None))
-    ck.save(tmp / "env", ts.env_state)
-    ck.wait_until_finished()
+    try:
+        ck.save(tmp / "learner", ts.replace(env_state=None))
+        ck.save(tmp / "env", ts.env_state)
+        ck.wait_until_finished()
+    finally:
+        ck.close()
     old = path.with_name(f".{path.name}.old")
     if path.exists():
         path.rename(old)
@@ -59,9 +62,11 @@ def load_checkpoint(template: TrainState, path: str | Path, keep_env: bool = Fal
     try:
         ts = ck.restore((path / "learner").absolute(), template.replace(env_state=None))
         env = template.env_state if keep_env else ck.restore((path / "env").absolute(), template.env_state)
-    except (ValueError, KeyError, TypeError) as e:
+    except (ValueError, KeyError, TypeError, FileNotFoundError) as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         raise DragMeshError(f"{path}: checkpoint does not match this method/config ({first[:200]})") from None
+    finally:
+        ck.close()
     return ts.replace(env_state=env)
 
 

@@ -19,6 +19,7 @@ local devices when there are several); each seed still gets its own run folder o
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import io
@@ -98,12 +99,14 @@ def _read_jsonl(path: Path, max_epoch: int) -> list[dict]:
 
 
 def run_mesh(num_runs: int) -> jax.sharding.Mesh | None:
-    """A mesh over every device (all hosts' after ``jax.distributed.initialize()``) when there are several and
-    the runs split evenly over them; else None (one device runs them all)."""
+    """A mesh over this process's devices when there are several and the runs split evenly over them; else None
+    (one device runs them all). Several hosts: each process trains its own seeds on its own devices (logs and
+    checkpoints are written by the process that owns the runs)."""
     from dragmesh2_jax.ppo.train import RUN_AXIS
 
-    n = jax.device_count()
-    return jax.make_mesh((n,), (RUN_AXIS,)) if n > 1 and num_runs % n == 0 else None
+    devices = jax.local_devices()
+    n = len(devices)
+    return jax.sharding.Mesh(np.asarray(devices), (RUN_AXIS,)) if n > 1 and num_runs % n == 0 else None
 
 
 def _resume_epoch(run_dirs: list[Path]) -> int:
@@ -154,20 +157,21 @@ def train_runs(trainer: Trainer, run_dirs: list[Path], seeds: list[int], object_
             d.mkdir(parents=True, exist_ok=True)
             write_run_meta(d, trainer, object_dir, meta, seed=seed)
         ts = trainer.init_runs(seeds) if start is None else jax.tree.map(lambda x: x[None], start)
-    best = [max((r["reward"] for r in rr), default=-np.inf) for rr in rows]
-    best_robust = [max((selection.score(r) for r in rr), default=None) for rr in robust_rows]
     robust = robust_evaluator(trainer, selection) if selection.every > 0 else None
     first = int(ts.epoch[0])
-    from tensorboardX import SummaryWriter
-
-    boards = [SummaryWriter(str(d / "tb")) for d in run_dirs]
+    best = [max((r["reward"] for r in rr), default=-np.inf) for rr in rows]
+    best_robust = [max((selection.score(r) for r in rr), default=None) for rr in robust_rows]
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from tensorboardX import SummaryWriter
 
     name = trainer.method.name + (f" x {R} seeds" if R > 1 else "")
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.fields[stats]}"), disable=not progress) as bar:
+                  TextColumn("{task.fields[stats]}"), disable=not progress) as bar, contextlib.ExitStack() as stack:
+        # a resumed run's event files drop the points past the checkpoint it continues from
+        boards = [stack.enter_context(SummaryWriter(str(d / "tb"), purge_step=first + 1 if resume else None))
+                  for d in run_dirs]
         task = bar.add_task(f"train {name}", total=c.epochs, completed=first, stats="")
-        t_start = time.time()
+        t_start = time.time() - (rows[0][-1]["seconds"] if rows[0] else 0.0)  # a resumed run's clock goes on
         for _ in range(first, c.epochs):
             ts, m = trainer.epoch_runs(ts, mesh)
             m = {k: np.asarray(v, np.float64) for k, v in jax.device_get(m).items()}
@@ -201,7 +205,6 @@ def train_runs(trainer: Trainer, run_dirs: list[Path], seeds: list[int], object_
                                                   f"progress {mean['progress']:.2f}  clip099 {mean['clip099']:.2f}")
     for i, d in enumerate(run_dirs):
         save_checkpoint(take_run(ts, i), d / "checkpoints" / "final")
-        boards[i].close()
     return ts, rows
 
 

@@ -6,8 +6,7 @@ Programs are compiled once per *signature* (method, PPO and task config, scene c
 object's data (``task.data``: the model, start states, task boundary) an argument: a second object of the same
 structure reuses the compiled epoch. ``Trainer.epoch_runs`` is the same epoch ``vmap``ped over a leading run
 axis (seeds), one program for a table's column of seeds; with a device mesh the run axis is sharded over the
-devices (``shard_map``; on several hosts, call ``jax.distributed.initialize()`` first and the mesh spans
-every host's devices).
+devices (``shard_map``; several hosts each train their own seeds, see the README).
 
 Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds + w_aux L_aux, w_aux warmed up 0 -> 0.01.
 Time-limit truncations bootstrap from V(final observation); terminations (success, detachment) do not.
@@ -134,6 +133,8 @@ class Trainer:
         def build(t):  # the vmapped epoch, and its compiled forms by mesh
             return {"epoch": jax.vmap(lambda data, ts: t.bind(data)._epoch(ts), in_axes=(None, 0))}
 
+        if mesh is None and ts.epoch.shape[0] == 1:  # one run: the unbatched program (its lax.cond stays a branch)
+            return jax.tree.map(lambda x: x[None], self.epoch(jax.tree.map(lambda x: x[0], ts)))
         P = jax.sharding.PartitionSpec
         programs = self._program("epoch_runs", build)
         if mesh not in programs:
