@@ -78,15 +78,11 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
 
 
 def grasp_picture(task, path: Path) -> str:
-    import mujoco
-
-    from dragmesh2_jax.render import render_png
+    from dragmesh2_jax.render import render_png, set_pose
 
     scene, traj = task.scene, task.traj
-    d = scene.initial_data()
-    d.qpos[scene.ids.hand_qpos] = traj.frames[traj.drag_start].hand_q
-    d.qpos[scene.ids.target_qpos] = traj.frames[traj.drag_start].joint_positions[traj.target_index]
-    mujoco.mj_forward(scene.model, d)
+    frame = traj.frames[traj.drag_start]
+    d = set_pose(scene, scene.initial_data(), frame.hand_q, frame.joint_positions[traj.target_index])
     return render_png(scene.model, d, path, target=scene.handle.centre)
 
 

@@ -120,44 +120,61 @@ def gl_available() -> bool:
         return False
 
 
-def render_png(model: mujoco.MjModel, data: mujoco.MjData, path: str | Path, target=None, width: int = 800,
-               height: int = 600, backend: str = "auto") -> str:
-    """Write a PNG of the scene looking at ``target`` (world point). Returns the renderer used:
-    ``"mujoco"`` (GL offscreen) or ``"matplotlib"`` (no GL backend available, or ``backend="matplotlib"``)."""
+def render_image(model: mujoco.MjModel, data: mujoco.MjData, target=None, width: int = 800, height: int = 600,
+                 backend: str = "auto") -> tuple[bytes, str]:
+    """PNG bytes of the scene looking at ``target`` (world point) and the renderer used: ``"mujoco"`` (GL
+    offscreen) or ``"matplotlib"`` (no GL backend available, or ``backend="matplotlib"``)."""
     target = np.asarray(target if target is not None else data.xpos[-1], dtype=np.float64)
-    png, used = None, "matplotlib"
     if backend == "mujoco" or (backend == "auto" and gl_available()):
         try:
-            png, used = _render_gl(model, data, target, width, height), "mujoco"
+            return _render_gl(model, data, target, width, height), "mujoco"
         except Exception:
             if backend == "mujoco":
                 raise
-    if png is None:
-        png = _render_matplotlib(model, data, target, width, height)
+    return _render_matplotlib(model, data, target, width, height), "matplotlib"
+
+
+def render_png(model: mujoco.MjModel, data: mujoco.MjData, path: str | Path, target=None, width: int = 800,
+               height: int = 600, backend: str = "auto") -> str:
+    """Write a PNG of the scene looking at ``target``; returns the renderer used (see :func:`render_image`)."""
+    png, used = render_image(model, data, target, width, height, backend)
     atomic_write_bytes(path, png)
     return used
 
 
-def render_trajectory_gif(obj, traj, path: str | Path, every: int = 15, width: int = 480, height: int = 360) -> str:
-    """A GIF of a trajectory replayed kinematically (recorded hand q and object joints) every ``every`` frames."""
+def set_pose(scene, data: mujoco.MjData, hand_q, obj_q) -> mujoco.MjData:
+    """``data`` at hand configuration ``hand_q`` (51) and target-joint position ``obj_q``, kinematics computed."""
+    data.qpos[scene.ids.hand_qpos] = hand_q
+    data.qpos[scene.ids.target_qpos] = obj_q
+    mujoco.mj_forward(scene.model, data)
+    return data
+
+
+def _frame(scene, data, width: int, height: int):
+    """(PIL image, renderer) of ``data`` looking at the handle."""
     from PIL import Image
 
+    png, used = render_image(scene.model, data, scene.handle.centre, width, height)
+    return Image.open(io.BytesIO(png)).convert("RGB"), used
+
+
+def _write_gif(frames, path: str | Path, frame_ms: int) -> None:
+    buf = io.BytesIO()
+    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=frame_ms, loop=0)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def render_trajectory_gif(obj, traj, path: str | Path, every: int = 15, width: int = 480, height: int = 360) -> str:
+    """A GIF of a trajectory replayed kinematically (recorded hand q and object joints) every ``every`` frames."""
     from dragmesh2_jax.scene import SceneConfig, build_scene
 
     sc = build_scene(obj, SceneConfig(scale=traj.header.get("scene", {}).get("scale", 0.4)))
     d = sc.initial_data()
     images, used = [], "matplotlib"
-    tmp = Path(path).with_suffix(".frame.png")
     for f in traj.frames[::every]:
-        d.qpos[sc.ids.hand_qpos] = f.hand_q
-        d.qpos[sc.ids.target_qpos] = f.joint_positions[traj.target_index]
-        mujoco.mj_forward(sc.model, d)
-        used = render_png(sc.model, d, tmp, target=sc.handle.centre, width=width, height=height)
-        images.append(Image.open(io.BytesIO(tmp.read_bytes())).convert("RGB"))
-    tmp.unlink(missing_ok=True)
-    buf = io.BytesIO()
-    images[0].save(buf, format="GIF", save_all=True, append_images=images[1:], duration=250, loop=0)
-    atomic_write_bytes(path, buf.getvalue())
+        img, used = _frame(sc, set_pose(sc, d, f.hand_q, f.joint_positions[traj.target_index]), width, height)
+        images.append(img)
+    _write_gif(images, path, 250)
     return used
 
 
@@ -206,16 +223,12 @@ def render_policy_video(task, policy, params, dampings: list[float], path: str |
     sc = task.scene
     d = sc.initial_data()
     T = max(r["steps"] for r in rows)
-    tmp = Path(path).with_suffix(".frame.png")
     frames, used = [], "matplotlib"
     for t in [*range(0, T, every), T - 1]:
         panels = []
         for r in rows:
             k = min(t, r["steps"] - 1)
-            d.qpos[sc.ids.hand_qpos], d.qpos[sc.ids.target_qpos] = r["hand_q"][k], r["obj_q"][k]
-            mujoco.mj_forward(sc.model, d)
-            used = render_png(sc.model, d, tmp, target=sc.handle.centre, width=width, height=height)
-            img = Image.open(io.BytesIO(tmp.read_bytes())).convert("RGB")
+            img, used = _frame(sc, set_pose(sc, d, r["hand_q"][k], r["obj_q"][k]), width, height)
             end = "" if t < r["steps"] - 1 else (" opened" if r["success"] else " failed")
             ImageDraw.Draw(img).text((8, 8), f"damping x{r['damping']:g}  step {k}{end}", fill=(0, 0, 0))
             panels.append(img)
@@ -223,7 +236,6 @@ def render_policy_video(task, policy, params, dampings: list[float], path: str |
         for i, p in enumerate(panels):
             frame.paste(p, (i * width, 0))
         frames.append(frame)
-    tmp.unlink(missing_ok=True)
     frame_s = every * task.config.control_dt  # real time between frames
     path = Path(path)
     if path.suffix == ".mp4":
@@ -234,7 +246,5 @@ def render_policy_video(task, policy, params, dampings: list[float], path: str |
             return str(path), used
         except Exception:  # no mediapy or no ffmpeg: a GIF instead
             path = path.with_suffix(".gif")
-    buf = io.BytesIO()
-    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=round(1000 * frame_s), loop=0)
-    atomic_write_bytes(path, buf.getvalue())
+    _write_gif(frames, path, round(1000 * frame_s))
     return str(path), used

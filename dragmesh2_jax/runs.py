@@ -41,12 +41,11 @@ def load_task(object_dir: str, trajectory: str | None = None, backend: str = "au
         raise DragMeshError("no object folder given (--object)")
     config = TaskConfig(backend=backend, impl=impl, **overrides)  # validated before anything compiles
     obj = load_gapartnet(object_dir)
-    if trajectory:
-        traj = read_trajectory(trajectory)
+    traj = read_trajectory(trajectory) if trajectory else None
+    if traj is not None:
         obj = adopt_trajectory_target(obj, traj)
-        return PullTask(build_scene(obj, scene_config or SceneConfig()), traj, config)
     scene = build_scene(obj, scene_config or SceneConfig())
-    return PullTask(scene, generate(obj, scene=scene), config)
+    return PullTask(scene, generate(obj, scene=scene) if traj is None else traj, config)
 
 
 def adopt_trajectory_target(obj, traj):
@@ -54,12 +53,9 @@ def adopt_trajectory_target(obj, traj):
     largest motion range in the reference trajectory), saying so when that is not the default target."""
     import sys
 
-    names = [j.name for j in obj.movable_joints]
-    n = len(traj.frames[0].joint_positions)
-    if n != len(names):
-        raise DragMeshError(f"trajectory has {n} object joints but object {obj.object_id} has {len(names)} movable "
-                            "joints")
-    moved = names[traj.target_index]
+    from dragmesh2_jax.task.env import trajectory_joint
+
+    moved = trajectory_joint(obj, traj)
     if moved != obj.target.joint.name:
         print(f"note: the trajectory moves joint {moved} of object {obj.object_id}; it becomes the target (the "
               f"default target was {obj.target.joint.name})", file=sys.stderr)

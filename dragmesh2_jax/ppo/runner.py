@@ -183,13 +183,16 @@ def train_runs(trainer: Trainer, run_dirs: list[Path], seeds: list[int], object_
                 rows[i].append(row)
                 _write_table(d / "log", rows[i], LOG_KEYS)
                 _board(boards[i], "train", row)
-                one = take_run(ts, i)
+                improved = row["reward"] > best[i]
+                robust_due = robust is not None and (e % selection.every == 0 or e == c.epochs)
+                if e % save_every == 0 or improved or robust_due:  # this run's state, only when it is needed
+                    one = take_run(ts, i)
                 if e % save_every == 0:
                     save_checkpoint(one, d / "checkpoints" / f"epoch_{e:04d}")
-                if row["reward"] > best[i]:
+                if improved:
                     best[i] = row["reward"]
                     save_checkpoint(one, d / "checkpoints" / "best")
-                if robust is not None and (e % selection.every == 0 or e == c.epochs):
+                if robust_due:
                     r = robust(one)
                     r["selected"] = best_robust[i] is None or selection.score(r) > best_robust[i]
                     if r["selected"]:

@@ -2,7 +2,7 @@
 (``lax.scan`` over the vmapped env) + GAE + ``update_epochs`` x minibatch updates. Python only loops over
 epochs (``train``) for logging and checkpoints.
 
-Programs are compiled once per *signature* (method, PPO and task config, scene config, backend), with the
+Programs are compiled once per *signature* (method, network, PPO and task config, hand variant, backend), with the
 object's data (``task.data``: the model, start states, task boundary) an argument: a second object of the same
 structure reuses the compiled epoch. ``Trainer.epoch_runs`` is the same epoch ``vmap``ped over a leading run
 axis (seeds), one program for a table's column of seeds; with a device mesh the run axis is sharded over the
@@ -98,6 +98,7 @@ class Trainer:
         self.reset, self.step = make_batched(task)
         self.tx = optax.chain(optax.clip_by_global_norm(config.max_grad_norm),
                               optax.inject_hyperparams(optax.adam)(learning_rate=config.lr))
+        self._placed: dict = {}  # the object's data replicated on each mesh's devices
 
     # ---------------------------------------------------------------------------- compiled programs
     def signature(self) -> tuple:
@@ -110,6 +111,7 @@ class Trainer:
         t = copy.copy(self)
         t.task = self.task.bind(data)
         t.reset, t.step = make_batched(t.task)
+        t._placed = {}
         return t
 
     def _program(self, name: str, build):
@@ -143,8 +145,10 @@ class Trainer:
                 f = jax.shard_map(f, mesh=mesh, in_specs=(P(), P(RUN_AXIS)), out_specs=P(RUN_AXIS), check_vma=False)
             programs[mesh] = jax.jit(f)
         data = self.task.data
-        if mesh is not None:  # runs split over the devices, the object's data on every device (no-ops once placed)
-            data = jax.device_put(data, jax.sharding.NamedSharding(mesh, P()))
+        if mesh is not None:  # runs split over the devices (a no-op once placed), the object's data on every device
+            if mesh not in self._placed:
+                self._placed[mesh] = jax.device_put(data, jax.sharding.NamedSharding(mesh, P()))
+            data = self._placed[mesh]
             ts = jax.device_put(ts, jax.sharding.NamedSharding(mesh, P(RUN_AXIS)))
         return programs[mesh](data, ts)
 

@@ -107,9 +107,9 @@ class TaskData:
     fields: WorldFields  # nominal values of RANDOMIZED_FIELDS
 
 
-def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
-    """A clear error if ``traj`` was not made for ``scene``'s object (before anything compiles)."""
-    obj = scene.obj
+def trajectory_joint(obj, traj: Trajectory) -> str:
+    """The name of the object joint ``traj`` moves (its target), with a clear error if ``traj`` was not made for
+    ``obj``."""
     h = traj.header
     if h.get("object_id") not in (None, obj.object_id):
         raise DragMeshError(f"trajectory is for object {h['object_id']}, not {obj.object_id}")
@@ -117,11 +117,17 @@ def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
     if n != len(obj.movable_joints):
         raise DragMeshError(f"trajectory has {n} object joints but object {obj.object_id} has "
                             f"{len(obj.movable_joints)} movable joints")
-    names = [j.name for j in obj.movable_joints]
-    if names[traj.target_index] != obj.target.joint.name:
-        raise DragMeshError(f"trajectory moves joint {names[traj.target_index]} but the target of object "
-                            f"{obj.object_id} is {obj.target.joint.name} (build the scene from "
-                            f"obj.with_target({names[traj.target_index]!r}); runs.load_task does)")
+    return obj.movable_joints[traj.target_index].name
+
+
+def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
+    """A clear error if ``traj`` was not made for ``scene``'s object and target (before anything compiles)."""
+    obj = scene.obj
+    moved = trajectory_joint(obj, traj)
+    if moved != obj.target.joint.name:
+        raise DragMeshError(f"trajectory moves joint {moved} but the target of object {obj.object_id} is "
+                            f"{obj.target.joint.name} (build the scene from obj.with_target({moved!r}); "
+                            "runs.load_task does)")
     if not traj.q_max - traj.q_min > 1e-6:
         raise DragMeshError("trajectory never moves its target joint (zero motion range)")
 
@@ -178,10 +184,13 @@ class PullTask:
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
                              fields={f: jnp.asarray(getattr(scene.model, f)) for f in RANDOMIZED_FIELDS})
-        self.num_starts = len(starts)
         self.action_size = NUM_DOFS
         self.active = jnp.asarray(active_dofs(scene.config.hand))
         self.substeps = self.backend.substeps
+
+    @property
+    def num_starts(self) -> int:
+        return self.data.start_ctrl.shape[0]
 
     def bind(self, data: TaskData) -> PullTask:
         """This task over ``data`` (another object of the same structure, or tracers of a compiled program)."""
@@ -266,7 +275,7 @@ class PullTask:
     def _reset(self, key, damp, fric, fixed) -> State:
         c = self.config
         key, k_start = jax.random.split(key)
-        start = jax.random.randint(k_start, (), 0, self.data.start_ctrl.shape[0])
+        start = jax.random.randint(k_start, (), 0, self.num_starts)
         ps = self.backend.reset_state(self.data.physics, start)
         k = self.kinematics(ps)
         ctrl = self.data.start_ctrl[start]
