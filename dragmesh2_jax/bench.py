@@ -122,3 +122,49 @@ def bench_soak(task: PullTask, dampings: list[float], num_envs: int, steps: int,
                      "episodes": int(episodes[w].sum()), "batch_finite": bool(finite[w].all()),
                      "wall_s_all_dampings": round(wall, 2)})
     return rows
+
+
+# ------------------------------------------------------------------ sweeps behind ``dragmesh2 bench``
+def bench_env_sweep(object_dir: str | None, trajectory: str | None, backends: list[str], num_envs: list[int],
+                    steps: int, mjx_steps: int | None = None, impl: str = "jax", report=None) -> list[dict]:
+    """``bench_env`` for every backend x batch size on one object (default: the packaged drawer); MJX may take
+    fewer steps (``mjx_steps``: it is slow on a CPU). ``report(row)`` sees each row as it is measured."""
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.runs import load_task
+
+    rows = []
+    for backend in backends:
+        task = load_task(object_dir or str(default_object()), trajectory, backend, impl)
+        for n in num_envs:
+            rows.append(bench_env(task, n, mjx_steps if backend == "mjx" and mjx_steps else steps))
+            if report:
+                report(rows[-1])
+    return rows
+
+
+def bench_train_sweep(objects: list[str] | None, method: str, backend: str, num_envs: list[int], runs: list[int],
+                      epochs: int, impl: str = "jax", report=None) -> list[dict]:
+    """``bench_train`` for every object x batch size x run count (objects of one structure share a program)."""
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.runs import make_trainer
+
+    rows = []
+    for obj in objects or [str(default_object())]:
+        for n in num_envs:
+            for r in runs:
+                rows.append(bench_train(make_trainer(obj, None, method, backend, impl, num_envs=n), epochs, r))
+                if report:
+                    report(rows[-1])
+    return rows
+
+
+def bench_soak_sweep(objects: list[str] | None, dampings: list[float], num_envs: int, steps: int, seed: int = 0,
+                     backend: str = "auto", impl: str = "jax") -> list[dict]:
+    """``bench_soak`` on every object (default: the packaged drawer)."""
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.runs import load_task
+
+    rows = []
+    for obj in objects or [str(default_object())]:
+        rows += bench_soak(load_task(obj, None, backend, impl), dampings, num_envs, steps, seed)
+    return rows

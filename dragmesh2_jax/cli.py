@@ -11,47 +11,43 @@ import sys
 from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.runs import eval_task, load_run, load_task, make_trainer, parse_floats, run_meta, trainer_from_record
+from dragmesh2_jax.runs import (
+    describe_object,
+    evaluate_baseline,
+    evaluate_checkpoint,
+    finetune_run,
+    make_trajectory,
+    parse_floats,
+    train_from_args,
+    video_of_run,
+)
 
 
-def _scene_config(args):
-    from dragmesh2_jax.scene import SceneConfig
-
-    return SceneConfig(scale=args.scale, collide=args.collide)
+def _dampings(text: str, what: str = "--damping") -> list[float]:
+    return parse_floats(text, what, minimum=0.0)
 
 
-def _add_scene_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scale", type=float, default=0.4, help="object scale (default 0.4, as the reference)")
-    p.add_argument("--collide", choices=["target", "all"], default="target",
-                   help="object pieces that collide with the hand (default: target part near the handle)")
+def _modes(text: str) -> list[str]:
+    return [m.strip() for m in text.split(",") if m.strip()]
+
+
+def _err(*lines) -> None:
+    print(*lines, file=sys.stderr)
 
 
 def cmd_inspect(args) -> int:
-    from dragmesh2_jax.assets.gapartnet import load_gapartnet
-    from dragmesh2_jax.scene import build_scene
+    from dragmesh2_jax.scene import SceneConfig
 
-    obj = load_gapartnet(args.folder)
-    scene = build_scene(obj, _scene_config(args))
-    info = obj.summary()
-    info["scene"] = scene.stats
-    info["handle_world"] = {"centre": [round(float(x), 5) for x in scene.handle.centre],
-                            "thickness_m": round(scene.handle.thickness, 5)}
-    if args.render:
-        from dragmesh2_jax.render import render_png
-
-        d = scene.initial_data()
-        info["render"] = {"path": str(args.render),
-                          "renderer": render_png(scene.model, d, args.render, target=scene.handle.centre)}
+    info = describe_object(args.folder, SceneConfig(scale=args.scale, collide=args.collide), args.render)
     if args.json:
         print(json.dumps(info, indent=2))
         return 0
-    t, h = info["target_joint"], info["handle"]
+    t, h, s = info["target_joint"], info["handle"], info["scene"]
     print(f"object        {info['object_id']} ({info['category']})  {info['folder']}")
     print(f"target part   {info['target_part']['link']} [{info['target_part']['category']}]")
     print(f"target joint  {t['name']} {t['type']} axis {t['axis']} origin {t['origin']} range {t['range']}")
     print(f"handle        {h['source']} {h['link']} centre {h['centre']} normal {h['normal']} long {h['long_axis']}")
     print(f"              thickness {h['thickness']} width {h['width']} length {h['length']} (object units)")
-    s = scene.stats
     print(f"collision     {s['collision_pieces']} colliding pieces of {s['pieces']}, largest hull "
           f"{s['max_hull_vertices']} vertices, {s['contact_pairs']} hand-object geom pairs")
     print(f"model         nq {s['nq']} nv {s['nv']} nu {s['nu']} ngeom {s['ngeom']}, target part "
@@ -65,41 +61,23 @@ def cmd_objects(args) -> int:
     from dragmesh2_jax.assets import procedural
 
     if args.objects_cmd == "synth":
-        cats = list(procedural.CATEGORIES) if args.category == "all" else [args.category]
-        for c in cats:
-            if c not in procedural.CATEGORIES:
-                raise DragMeshError(f"unknown category {c!r} (choose from all, {', '.join(procedural.CATEGORIES)})")
-        paths = [p for c in cats for p in procedural.synthesize(c, args.count, args.seed, args.out)]
-        for p in paths:
-            print(p)
-        print(f"{len(paths)} objects in {args.out}", file=sys.stderr)
-    else:
-        print("categories:", ", ".join(procedural.CATEGORIES))
-        for p in sorted(procedural.default_objects_dir().iterdir()):
-            if p.is_dir():
-                print(p)
+        paths = procedural.synthesize_categories(args.category, args.count, args.seed, args.out)
+        print(*paths, sep="\n")
+        _err(f"{len(paths)} objects in {args.out}")
+        return 0
+    print("categories:", ", ".join(procedural.CATEGORIES))
+    print(*procedural.default_objects(), sep="\n")
     return 0
 
 
 def cmd_trajectory(args) -> int:
-    from dragmesh2_jax.assets.gapartnet import load_gapartnet
-    from dragmesh2_jax.trajectory.generator import generate
-    from dragmesh2_jax.trajectory.schema import write_trajectory
-
-    if args.render and not args.render.endswith(".gif"):
-        raise DragMeshError(f"{args.render}: only .gif videos are supported")
-    obj = load_gapartnet(args.object)
-    traj = generate(obj)
-    write_trajectory(traj, args.out)
+    traj, used = make_trajectory(args.object, args.out, args.render)
     q = traj.header["quality"]
     blocks = ", ".join(f"{p} {b - a}" for p, a, b in traj.phase_blocks())
     print(f"{args.out}: {len(traj.frames)} frames ({blocks}); target {traj.header['target']['joint_name']} "
           f"{traj.header['target']['type']}; q_start {traj.q_start:.4f} q_done {traj.q_done:.4f} "
           f"q_max {traj.q_max:.4f}; quality {'PASSED' if q['passed'] else 'FAILED: ' + '; '.join(q['reasons'])}")
-    if args.render:
-        from dragmesh2_jax.render import render_trajectory_gif
-
-        used = render_trajectory_gif(obj, traj, args.render)
+    if used:
         print(f"video {args.render} ({used} renderer)")
     return 0 if q["passed"] else 1
 
@@ -113,58 +91,46 @@ def cmd_dataset(args) -> int:
     return 0
 
 
-def cmd_track(args) -> int:
-    from dragmesh2_jax.baselines.tracking import track
+def _print_env_row(r: dict) -> None:
+    _err(f"{r['backend']:7s} envs {r['num_envs']:5d}  compile {r['compile_s']:7.2f} s  "
+         f"control {r['control_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s")
 
-    dampings = parse_floats(args.damping, "--damping", minimum=0.0)
-    task = load_task(args.object, args.trajectory, args.backend, args.impl)
-    rows = track(task, dampings, seed=args.seed)
-    if args.json:
-        print(json.dumps({"object_id": task.scene.obj.object_id, "backend": task.backend.name, "results": rows}))
-        return 0
-    print(f"tracking baseline on {task.scene.obj.object_id} ({task.backend.name} backend); "
-          f"q_start {task.traj.q_start:.4f}, q_done {task.traj.q_done:.4f}")
-    print("| damping | success | final progress |\n|---|---|---|")
-    for r in rows:
-        print(f"| x{r['damping']:g} | {int(r['success'])} | {r['final_progress']:.3f} |")
-    return 0
+
+def _print_train_row(r: dict) -> None:
+    _err(f"{r['method']} {r['backend']:7s} {r['object']} envs {r['num_envs']:5d} x {r['runs']} runs  "
+         f"first epoch {r['first_epoch_s']:7.2f} s  {r['s_per_epoch']:.3f} s/epoch  "
+         f"env {r['env_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s  "
+         f"150 epochs ~{r['budget_s']:.0f} s")
+
+
+def _counts(text: str, what: str) -> list[int]:
+    vals = parse_floats(text, what, minimum=1)
+    if any(v != int(v) for v in vals):
+        raise DragMeshError(f"{what}: whole numbers expected, got {text!r}")
+    return [int(v) for v in vals]
 
 
 def cmd_bench(args) -> int:
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.bench import bench_env
+    from dragmesh2_jax.bench import bench_env_sweep
 
-    rows = []
-    for backend in args.backend.split(","):
-        task = load_task(args.object or str(default_object()), args.trajectory, backend.strip(), args.impl)
-        for n in parse_floats(args.num_envs, "--num-envs"):
-            steps = args.steps if backend.strip() != "mjx" or args.mjx_steps is None else args.mjx_steps
-            rows.append(bench_env(task, int(n), steps))
-            r = rows[-1]
-            print(f"{r['backend']:7s} envs {r['num_envs']:5d}  compile {r['compile_s']:7.2f} s  "
-                  f"control {r['control_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s",
-                  file=sys.stderr)
+    rows = bench_env_sweep(args.object, args.trajectory, [b.strip() for b in args.backend.split(",")],
+                           _counts(args.num_envs, "--num-envs"), args.steps, args.mjx_steps, args.impl,
+                           report=_print_env_row)
     if args.json:
         print(json.dumps(rows, indent=1))
     return 0
 
 
 def cmd_bench_soak(args) -> int:
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.bench import bench_soak
+    from dragmesh2_jax.bench import bench_soak_sweep
 
-    dampings = parse_floats(args.damping, "--damping", minimum=0.0)
-    rows = []
-    for obj in args.objects or [str(default_object())]:
-        task = load_task(obj, None, args.backend, args.impl)
-        rows += bench_soak(task, dampings, args.num_envs, args.steps, args.seed)
+    rows = bench_soak_sweep(args.objects, _dampings(args.damping), args.num_envs, args.steps, args.seed,
+                            args.backend, args.impl)
     for r in rows:
-        print(f"{r['object']:>20s} x{r['damping']:<4g} {r['physics_steps']:8d} physics steps  non-finite worlds "
-              f"{r['nonfinite_worlds']:3d} ({r['nonfinite_events']} events)  episodes {r['episodes']:4d}",
-              file=sys.stderr)
-    total = sum(r["physics_steps"] for r in rows)
-    print(f"{total} physics steps, {sum(r['nonfinite_worlds'] for r in rows)} worlds went non-finite "
-          "(each isolated and reset)", file=sys.stderr)
+        _err(f"{r['object']:>20s} x{r['damping']:<4g} {r['physics_steps']:8d} physics steps  non-finite worlds "
+             f"{r['nonfinite_worlds']:3d} ({r['nonfinite_events']} events)  episodes {r['episodes']:4d}")
+    _err(f"{sum(r['physics_steps'] for r in rows)} physics steps, {sum(r['nonfinite_worlds'] for r in rows)} "
+         "worlds went non-finite (each isolated and reset)")
     if args.json:
         print(json.dumps(rows, indent=1))
     if not all(r["batch_finite"] for r in rows):
@@ -173,22 +139,20 @@ def cmd_bench_soak(args) -> int:
 
 
 def cmd_bench_train(args) -> int:
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.bench import bench_train
+    from dragmesh2_jax.bench import bench_train_sweep
 
-    rows = []
-    for obj in (args.object or str(default_object())).split(","):
-        for n in parse_floats(args.num_envs, "--num-envs", minimum=1):
-            for runs in parse_floats(args.runs, "--runs", minimum=1):
-                trainer = make_trainer(obj, None, args.method, args.backend, args.impl, num_envs=int(n))
-                rows.append(r := bench_train(trainer, args.epochs, int(runs)))
-                print(f"{r['method']} {r['backend']:7s} {r['object']} envs {r['num_envs']:5d} x {r['runs']} runs  "
-                      f"first epoch {r['first_epoch_s']:7.2f} s  {r['s_per_epoch']:.3f} s/epoch  "
-                      f"env {r['env_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s  "
-                      f"150 epochs ~{r['budget_s']:.0f} s", file=sys.stderr)
+    objects = args.object.split(",") if args.object else None
+    rows = bench_train_sweep(objects, args.method, args.backend, _counts(args.num_envs, "--num-envs"),
+                             _counts(args.runs, "--runs"), args.epochs, args.impl, report=_print_train_row)
     if args.json:
         print(json.dumps(rows, indent=1))
     return 0
+
+
+def _add_scene_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scale", type=float, default=0.4, help="object scale (default 0.4, as the reference)")
+    p.add_argument("--collide", choices=["target", "all"], default="target",
+                   help="object pieces that collide with the hand (default: target part near the handle)")
 
 
 def _add_backend_args(p: argparse.ArgumentParser) -> None:
@@ -197,7 +161,7 @@ def _add_backend_args(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_train(args) -> int:
-    from dragmesh2_jax.ppo.runner import RobustSelection, train, train_seeds
+    from dragmesh2_jax.ppo.runner import RobustSelection
 
     if args.robust_every < 0:
         raise DragMeshError("--robust-every must be >= 0")
@@ -207,23 +171,13 @@ def cmd_train(args) -> int:
         if any(s != int(s) for s in seeds) or len(set(seeds)) < len(seeds):
             raise DragMeshError(f"--seeds: distinct whole numbers expected, got {args.seeds!r}")
         seeds = [int(s) for s in seeds]
-    record = Path(args.out) / (f"seed_{seeds[0]}" if seeds else "")
-    if args.resume:
-        meta = run_meta(record)
-        trainer = trainer_from_record(record, args.backend, args.impl,
-                                      **({"epochs": args.epochs} if args.epochs else {}))
-    else:
-        trainer = make_trainer(args.object, args.trajectory, args.method, args.backend, args.impl,
-                               epochs=args.epochs, num_envs=args.num_envs, seed=args.seed,
-                               lr_schedule=args.lr_schedule)
-    kwargs = {"resume": args.resume, "save_every": args.save_every, "progress": not args.quiet,
-              "selection": RobustSelection(every=args.robust_every)}
-    object_dir = args.object or meta["object"]
-    if seeds:
-        _, runs = train_seeds(trainer, args.out, seeds, object_dir, **kwargs)
-    else:
-        runs = [train(trainer, args.out, object_dir, **kwargs)[1]]
-    for seed, rows in zip(seeds or [trainer.config.seed], runs, strict=True):
+    trainer, logs = train_from_args(
+        args.out, args.object, args.trajectory, args.method, args.backend, args.impl, seeds, args.resume,
+        task_changes=config_changes(args, "task"), scene_changes=config_changes(args, "scene"),
+        selection=RobustSelection(every=args.robust_every), save_every=args.save_every, progress=not args.quiet,
+        epochs=args.epochs, num_envs=args.num_envs, seed=args.seed, lr_schedule=args.lr_schedule,
+        **config_changes(args, "ppo"))
+    for seed, rows in logs:
         last = rows[-1] if rows else {}
         print(f"{args.out}: {trainer.method.name} seed {seed} on {trainer.task.scene.obj.object_id} "
               f"({trainer.task.backend.name}), {last.get('epoch', 0)} epochs, training success "
@@ -232,14 +186,10 @@ def cmd_train(args) -> int:
 
 
 def cmd_finetune(args) -> int:
-    from dragmesh2_jax.ppo.runner import RobustSelection, train
-    from dragmesh2_jax.runs import make_finetune
+    from dragmesh2_jax.ppo.runner import RobustSelection
 
-    trainer, start, parent = make_finetune(args.checkpoint, args.recipe, args.backend, args.impl, args.epochs)
-    meta = {"finetune": args.recipe, "parent": str(parent.resolve())}
-    object_dir = run_meta(parent.parent.parent)["object"]
-    _, rows = train(trainer, args.out, object_dir, save_every=args.save_every, progress=not args.quiet,
-                    selection=RobustSelection(every=args.robust_every), start=start, meta=meta)
+    parent, rows = finetune_run(args.checkpoint, args.recipe, args.out, args.backend, args.impl, args.epochs,
+                                RobustSelection(every=args.robust_every), args.save_every, not args.quiet)
     last = rows[-1] if rows else {}
     print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, training success "
           f"{last.get('success', 0):.2f}, clip099 {last.get('clip099', 0):.2f}, {last.get('seconds', 0):.0f} s")
@@ -247,22 +197,16 @@ def cmd_finetune(args) -> int:
 
 
 def cmd_evaluate(args) -> int:
-    from dragmesh2_jax.evaluation.evaluate import MODES, evaluate, markdown_table
-    from dragmesh2_jax.io import atomic_write_json, atomic_write_text
-    modes = [m.strip() for m in args.mode.split(",") if m.strip()]
-    bad = [m for m in modes if m not in MODES]
-    if bad or not modes:
-        raise DragMeshError(f"--mode: unknown mode(s) {bad} (choose from det, stoch)")
-    if args.episodes < 1:
-        raise DragMeshError("--episodes must be >= 1")
-    dampings = parse_floats(args.damping, "--damping", minimum=0.0)
-    trainer, ts, run_dir, ck = load_run(args.checkpoint, args.backend, args.impl)
-    task = eval_task(trainer.task, exact_reset=args.exact_reset)
-    result = evaluate(trainer, ts, dampings, modes, args.episodes, seed=args.seed, task=task)
-    result["checkpoint"] = str(ck)
-    stem = ck.stem + ("_exact" if args.exact_reset else "")
-    atomic_write_json(run_dir / f"eval_{stem}.json", result)
-    atomic_write_text(run_dir / f"eval_{stem}.md", markdown_table(result) + "\n")
+    from dragmesh2_jax.evaluation.evaluate import markdown_table
+
+    protocol = (_dampings(args.damping), _modes(args.mode), args.episodes, args.seed, args.exact_reset,
+                args.backend, args.impl)
+    if bool(args.checkpoint) == bool(args.method):
+        raise DragMeshError("give --checkpoint (a trained run) or --method with --object (a controller), not both")
+    if args.checkpoint:
+        result = evaluate_checkpoint(args.checkpoint, *protocol)
+    else:
+        result = evaluate_baseline(args.method, args.object, args.trajectory, *protocol)
     print(json.dumps(result, indent=1) if args.json else markdown_table(result))
     return 0
 
@@ -274,25 +218,88 @@ def cmd_demo(args) -> int:
     report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed,
                       progress=not args.quiet)
     print(report.read_text())
-    print(f"report: {report}", file=sys.stderr)
+    _err(f"report: {report}")
     return 0
 
 
 def cmd_video(args) -> int:
-    from dragmesh2_jax.render import render_policy_video
-
-    trainer, ts, _, ck = load_run(args.checkpoint, args.backend, args.impl)
-    dampings = parse_floats(args.damping, "--damping", minimum=0.0)
-    path, used = render_policy_video(eval_task(trainer.task, exact_reset=True), trainer.make_policy(True),
-                                     trainer.policy_params(ts), dampings, args.out, every=args.every)
+    dampings = _dampings(args.damping)
+    path, used, ck = video_of_run(args.checkpoint, dampings, args.out, args.every, args.backend, args.impl)
     print(f"{path}: det policy of {ck} at damping {', '.join(f'x{d:g}' for d in dampings)} ({used} renderer)")
     return 0
+
+
+# ------------------------------------------------------------- every config field as a flag
+#: Config dataclasses whose fields ``dragmesh2 train`` takes as ``--<prefix>.<field>`` flags.
+CONFIG_PREFIXES = ("task", "scene", "ppo")
+
+
+def _config_classes() -> dict:
+    from dragmesh2_jax.ppo.config import PPOConfig
+    from dragmesh2_jax.scene import SceneConfig
+    from dragmesh2_jax.task.config import TaskConfig
+
+    return {"task": TaskConfig, "scene": SceneConfig, "ppo": PPOConfig}
+
+
+def _field_parser(tp):
+    """An argparse type for a config field's annotation (scalars, optional scalars and tuples of numbers), or
+    None for nested configs (set them in Python)."""
+    text = str(tp)
+    optional = "None" in text
+    base = text.replace(" | None", "").replace("None | ", "").strip()
+    scalar = {"int": int, "float": float, "str": str, "bool": _bool}.get(base)
+    if scalar is not None:
+        return (lambda s: None if s.lower() == "none" else scalar(s)) if optional else scalar
+    if base.startswith("tuple[") and ("float" in base or "int" in base):
+        num = float if "float" in base else int
+
+        def tup(s):
+            if optional and s.lower() == "none":
+                return None
+            return tuple(num(x) for x in s.split(",") if x.strip())
+        return tup
+    return None
+
+
+def _bool(s: str) -> bool:
+    if s.lower() not in ("true", "false", "1", "0"):
+        raise argparse.ArgumentTypeError(f"expected true or false, got {s!r}")
+    return s.lower() in ("true", "1")
+
+
+def add_config_args(p: argparse.ArgumentParser, skip: tuple[str, ...] = ()) -> None:
+    """``--task.alpha 0.03``, ``--ppo.num-envs 8``, ``--scene.damping 25``: every scalar field of the task,
+    scene and PPO configs (defaults: the method preset's)."""
+    import dataclasses
+
+    for prefix, cls in _config_classes().items():
+        g = p.add_argument_group(f"{prefix} config ({cls.__name__}; default: the preset's)")
+        for f in dataclasses.fields(cls):
+            parse = _field_parser(f.type)
+            if parse is None or f"{prefix}.{f.name}" in skip:
+                continue
+            g.add_argument(f"--{prefix}.{f.name.replace('_', '-')}", dest=f"{prefix}__{f.name}", type=parse,
+                           default=argparse.SUPPRESS, metavar=f.type if isinstance(f.type, str) else None)
+
+
+def config_changes(args, prefix: str) -> dict:
+    """The ``--<prefix>.<field>`` flags given on the command line."""
+    return {k.split("__", 1)[1]: v for k, v in vars(args).items() if k.startswith(f"{prefix}__")}
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line ``error: ...`` and status 2, like every other bad input."""
+
+    def error(self, message: str):
+        print(f"error: {self.prog}: {message}", file=sys.stderr)
+        raise SystemExit(2)
 
 
 def build_parser() -> argparse.ArgumentParser:
     from dragmesh2_jax.ppo.runner import RobustSelection
 
-    p = argparse.ArgumentParser(prog="dragmesh2", description="DragMesh-2 in JAX/MuJoCo-MJX")
+    p = _Parser(prog="dragmesh2", description="DragMesh-2 in JAX/MuJoCo-MJX")
     sub = p.add_subparsers(dest="cmd", required=True)
 
     pi = sub.add_parser("inspect", help="describe a GAPartNet object folder: target, joint, handle, collision")
@@ -325,15 +332,6 @@ def build_parser() -> argparse.ArgumentParser:
     pb.add_argument("--out", required=True)
     pb.add_argument("--quiet", action="store_true")
     pds.set_defaults(func=cmd_dataset)
-
-    pk = sub.add_parser("track", help="trajectory-tracking baseline: success per damping multiplier")
-    pk.add_argument("--object", required=True)
-    pk.add_argument("--trajectory", help="trajectory file (default: generate one)")
-    pk.add_argument("--damping", default="1,2,4")
-    pk.add_argument("--seed", type=int, default=0)
-    pk.add_argument("--json", action="store_true")
-    _add_backend_args(pk)
-    pk.set_defaults(func=cmd_track)
 
     pbe = sub.add_parser("bench", help="benchmarks")
     bsub = pbe.add_subparsers(dest="bench_cmd", required=True)
@@ -386,6 +384,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="epochs between robustness evaluations that select best_robust (0: off)")
     ptr.add_argument("--quiet", action="store_true")
     _add_backend_args(ptr)
+    add_config_args(ptr, skip=("task.backend", "task.impl", "ppo.epochs", "ppo.num_envs", "ppo.seed",
+                               "ppo.lr_schedule"))
     ptr.set_defaults(func=cmd_train)
 
     pft = sub.add_parser("finetune", help="continue a trained run with a diagnostic preset (ARAM, Reconfig, ...)")
@@ -400,9 +400,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_backend_args(pft)
     pft.set_defaults(func=cmd_finetune)
 
-    pev = sub.add_parser("evaluate", help="evaluate a checkpoint: damping x mode cells, robustness summary")
-    pev.add_argument("--checkpoint", required=True,
+    pev = sub.add_parser("evaluate", help="evaluate a trained run or a controller: damping x mode cells, robustness")
+    pev.add_argument("--checkpoint",
                      help="a run folder (its best_robust checkpoint, else final) or one of its checkpoints/*")
+    pev.add_argument("--method", help="a controller that needs no training, instead of --checkpoint: tracking "
+                                      "(the expert drag replayed as PD targets)")
+    pev.add_argument("--object", help="object folder (with --method)")
+    pev.add_argument("--trajectory", help="trajectory file (with --method; default: generate one)")
     pev.add_argument("--damping", default="1,2,4")
     pev.add_argument("--mode", default="det,stoch")
     pev.add_argument("--episodes", type=int, default=20)
@@ -434,7 +438,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as e:  # --help (0) or a usage error (2, already reported)
+        return int(e.code or 0)
     if "mjx" in str(getattr(args, "backend", "")):  # before anything starts JAX (jaxlib < 0.11 CPU deadlock)
         from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
 

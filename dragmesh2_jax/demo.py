@@ -47,7 +47,7 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
     ck = resolve_checkpoint(out)
     ts = load_checkpoint(ts, ck)
     task = eval_task(trainer.task)
-    result = evaluate(trainer, ts, DEMO_DAMPINGS, ["det", "stoch"], episodes=DEMO_EPISODES, seed=seed, task=task)
+    result = evaluate(task, trainer.controller(ts), DEMO_DAMPINGS, ["det", "stoch"], episodes=DEMO_EPISODES, seed=seed)
     result["checkpoint"] = str(ck)
     atomic_write_json(out / f"eval_{ck.stem}.json", result)
     plot_success(result, out / "success_vs_damping.png")

@@ -63,10 +63,12 @@ def adopt_trajectory_target(obj, traj):
 
 
 def make_trainer(object_dir: str, trajectory: str | None, method_name: str, backend: str = "auto",
-                 impl: str = "jax", finetune: str | None = None, task_config=None, scene_config=None, **ppo):
+                 impl: str = "jax", finetune: str | None = None, task_config=None, scene_config=None,
+                 task_changes: dict | None = None, scene_changes: dict | None = None, **ppo):
     """A Trainer for ``method_name`` on the object: its task is the preset's (the method's task overrides), or
     ``task_config`` when given (a recorded run's; backend and impl are the arguments'), with a fine-tune preset's
-    overrides on top when ``finetune`` names one; the scene is the default or ``scene_config``."""
+    overrides on top when ``finetune`` names one, and ``task_changes`` (TaskConfig fields) last; the scene is the
+    default or ``scene_config``, with ``scene_changes`` (SceneConfig fields) on top."""
     from dragmesh2_jax.policies.methods import get_method, task_overrides
     from dragmesh2_jax.ppo.config import PPOConfig
     from dragmesh2_jax.ppo.finetune import get_finetune
@@ -82,6 +84,11 @@ def make_trainer(object_dir: str, trajectory: str | None, method_name: str, back
                      if f.name not in ("backend", "impl")}
     if finetune is not None:
         overrides.update(get_finetune(finetune).task_overrides(overrides.get("reward", RewardConfig())))
+    overrides.update(task_changes or {})
+    if scene_changes:
+        from dragmesh2_jax.scene import SceneConfig
+
+        scene_config = dataclasses.replace(scene_config or SceneConfig(), **scene_changes)
     task = load_task(object_dir, trajectory, backend, impl, scene_config, **overrides)
     return Trainer(task, method, config)
 
@@ -192,3 +199,141 @@ def load_run(checkpoint: str | Path, backend: str = "auto", impl: str = "jax"):
                                 aux_stats=src.aux_stats, privileged_stats=src.privileged_stats,
                                 value_stats=src.value_stats, epoch=src.epoch)
     return trainer, ts, run_dir, ck
+
+
+# ------------------------------------------------------------------------------------ whole commands
+def describe_object(folder: str, scene_config=None, render: str | None = None) -> dict:
+    """An object's summary (target, joint, handle), its scene's statistics and handle in the world, and, with
+    ``render``, a picture of hand + object written there."""
+    from dragmesh2_jax.assets.gapartnet import load_gapartnet
+    from dragmesh2_jax.scene import SceneConfig, build_scene
+
+    obj = load_gapartnet(folder)
+    scene = build_scene(obj, scene_config or SceneConfig())
+    info = obj.summary()
+    info["scene"] = scene.stats
+    info["handle_world"] = {"centre": [round(float(x), 5) for x in scene.handle.centre],
+                            "thickness_m": round(scene.handle.thickness, 5)}
+    if render:
+        from dragmesh2_jax.render import render_png
+
+        info["render"] = {"path": str(render), "renderer": render_png(scene.model, scene.initial_data(), render,
+                                                                     target=scene.handle.centre)}
+    return info
+
+
+def make_trajectory(object_dir: str, out: str, render: str | None = None):
+    """Generate an object's reference trajectory into ``out`` (and, with ``render``, a GIF of it executed);
+    returns (trajectory, renderer used or None)."""
+    from dragmesh2_jax.assets.gapartnet import load_gapartnet
+    from dragmesh2_jax.trajectory.generator import generate
+    from dragmesh2_jax.trajectory.schema import write_trajectory
+
+    if render and not render.endswith(".gif"):
+        raise DragMeshError(f"{render}: only .gif videos are supported")
+    obj = load_gapartnet(object_dir)
+    traj = generate(obj)
+    write_trajectory(traj, out)
+    if not render:
+        return traj, None
+    from dragmesh2_jax.render import render_trajectory_gif
+
+    return traj, render_trajectory_gif(obj, traj, render)
+
+
+def train_from_args(out: str, object_dir: str | None, trajectory: str | None, method: str, backend: str = "auto",
+                    impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
+                    task_changes: dict | None = None, scene_changes: dict | None = None, selection=None,
+                    save_every: int = 10, progress: bool = True, **ppo) -> tuple:
+    """A training run (or one per seed, as one program, in ``out/seed_N``), new or resumed from its record;
+    returns (trainer, [(seed, log rows)])."""
+    from dragmesh2_jax.ppo.runner import RobustSelection, train, train_seeds
+
+    record = Path(out) / (f"seed_{seeds[0]}" if seeds else "")
+    if resume:
+        trainer = trainer_from_record(record, backend, impl, **({"epochs": ppo["epochs"]} if ppo.get("epochs") else {}))
+        object_dir = run_meta(record)["object"]
+    else:
+        trainer = make_trainer(object_dir, trajectory, method, backend, impl, task_changes=task_changes,
+                               scene_changes=scene_changes, **ppo)
+    kwargs = {"resume": resume, "save_every": save_every, "progress": progress,
+              "selection": selection or RobustSelection()}
+    if seeds:
+        _, logs = train_seeds(trainer, out, seeds, object_dir, **kwargs)
+        return trainer, list(zip(seeds, logs, strict=True))
+    return trainer, [(trainer.config.seed, train(trainer, out, object_dir, **kwargs)[1])]
+
+
+def finetune_run(checkpoint: str, recipe: str, out: str, backend: str = "auto", impl: str = "jax",
+                 epochs: int | None = None, selection=None, save_every: int = 10, progress: bool = True):
+    """A fine-tune preset continuing a trained run into ``out``; returns (parent checkpoint, log rows)."""
+    from dragmesh2_jax.ppo.runner import RobustSelection, train
+
+    trainer, start, parent = make_finetune(checkpoint, recipe, backend, impl, epochs)
+    meta = {"finetune": recipe, "parent": str(parent.resolve())}
+    object_dir = run_meta(parent.parent.parent)["object"]
+    _, rows = train(trainer, out, object_dir, save_every=save_every, progress=progress,
+                    selection=selection or RobustSelection(), start=start, meta=meta)
+    return parent, rows
+
+
+def evaluate_checkpoint(checkpoint: str, dampings: list[float], modes: list[str], episodes: int = 20,
+                        seed: int = 42, exact_reset: bool = False, backend: str = "auto", impl: str = "jax") -> dict:
+    """The evaluation protocol for a trained run's checkpoint, written beside the run as ``eval_<checkpoint>.json``
+    and ``.md``."""
+    from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
+    from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+
+    check_protocol(modes, episodes)
+    trainer, ts, run_dir, ck = load_run(checkpoint, backend, impl)
+    result = evaluate(eval_task(trainer.task, exact_reset=exact_reset), trainer.controller(ts), dampings, modes,
+                      episodes, seed=seed)
+    result["checkpoint"] = str(ck)
+    stem = ck.stem + ("_exact" if exact_reset else "")
+    atomic_write_json(run_dir / f"eval_{stem}.json", result)
+    atomic_write_text(run_dir / f"eval_{stem}.md", markdown_table(result) + "\n")
+    return result
+
+
+def baseline_controllers() -> dict:
+    """Controllers that need no training, by name: ``name -> (task -> Controller)``."""
+    from dragmesh2_jax.baselines.tracking import TRACKING, tracking_controller
+
+    return {TRACKING: tracking_controller}
+
+
+def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, dampings: list[float], modes: list[str],
+                      episodes: int = 20, seed: int = 42, exact_reset: bool = False, backend: str = "auto",
+                      impl: str = "jax") -> dict:
+    """The evaluation protocol for a controller that needs no training (``baseline_controllers``) on an object."""
+    from dragmesh2_jax.evaluation.evaluate import evaluate
+
+    known = baseline_controllers()
+    if name not in known:
+        raise DragMeshError(f"unknown controller {name!r} (choose from {', '.join(known)}; trained policies are "
+                            "evaluated with --checkpoint)")
+    check_protocol(modes, episodes)
+    task = eval_task(load_task(object_dir, trajectory, backend, impl), exact_reset=exact_reset)
+    return evaluate(task, known[name](task), dampings, modes, episodes, seed=seed)
+
+
+def check_protocol(modes: list[str], episodes: int) -> None:
+    from dragmesh2_jax.evaluation.evaluate import MODES
+
+    bad = [m for m in modes if m not in MODES]
+    if bad or not modes:
+        raise DragMeshError(f"unknown evaluation mode(s) {bad} (choose from {', '.join(MODES)})")
+    if episodes < 1:
+        raise DragMeshError("episodes per cell must be >= 1")
+
+
+def video_of_run(checkpoint: str, dampings: list[float], out: str, every: int, backend: str = "auto",
+                 impl: str = "jax") -> tuple[Path, str, Path]:
+    """A run's deterministic policy from the exact start at each damping, side by side; returns (video path,
+    renderer used, checkpoint)."""
+    from dragmesh2_jax.render import render_policy_video
+
+    trainer, ts, _, ck = load_run(checkpoint, backend, impl)
+    path, used = render_policy_video(eval_task(trainer.task, exact_reset=True), trainer.make_policy(True),
+                                     trainer.policy_params(ts), dampings, out, every=every)
+    return path, used, ck

@@ -18,6 +18,7 @@ Choices (documented, all in :class:`SceneConfig`):
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
@@ -25,7 +26,7 @@ import mujoco
 import numpy as np
 
 from dragmesh2_jax.assets import hand as hand_lib
-from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, link_pieces
+from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, hull_distance, link_pieces
 from dragmesh2_jax.assets.gapartnet import GAPartNetObject, HandleFrame
 from dragmesh2_jax.errors import DragMeshError
 
@@ -51,7 +52,7 @@ class SceneConfig:
     link_areal_density: float = 5.0  # kg/m^2 (thin-shell mass of the target part)
     friction: float = 1.5  # object sliding friction
     collide: str = "target"  # "target" | "all"
-    collision_radius: float = 0.2  # m (world): target-part pieces this near the handle centre collide
+    collision_radius: float = 0.2  # m (world): target-part pieces this near the handle's surface collide
     gravity: bool = True
     solver_iterations: int = 4
     ls_iterations: int = 8
@@ -63,8 +64,10 @@ class SceneConfig:
             raise DragMeshError(f"scene scale must be positive, got {self.scale}")
         if not 0 < self.timestep <= 0.05:
             raise DragMeshError(f"scene timestep must be in (0, 0.05] s, got {self.timestep}")
-        if self.damping < 0:
-            raise DragMeshError(f"target-joint damping must be >= 0, got {self.damping}")
+        if not (math.isfinite(self.damping) and self.damping >= 0):
+            raise DragMeshError(f"target-joint damping must be finite and >= 0, got {self.damping}")
+        if not (math.isfinite(self.friction) and self.friction >= 0):
+            raise DragMeshError(f"object friction must be finite and >= 0, got {self.friction}")
         if self.collide not in ("target", "all"):
             raise DragMeshError(f"collide must be 'target' or 'all', got {self.collide!r}")
 
@@ -131,10 +134,10 @@ def _piece_geom(parent: ET.Element, asset: ET.Element, piece: ConvexPiece, name:
     ET.SubElement(parent, "geom", **attrs)
 
 
-def _piece_near(piece: ConvexPiece, point: np.ndarray, radius: float, scale: float) -> bool:
-    c = scale * piece.corners()
-    lo, hi = c.min(0), c.max(0)
-    return float(np.linalg.norm(np.clip(point, lo, hi) - point)) <= radius
+def _piece_near(piece: ConvexPiece, handle_box: np.ndarray, radius: float, scale: float) -> bool:
+    """Whether the piece's hull comes within ``radius`` of the handle's box (surface to surface: a large flat
+    panel counts by its nearest point, not by its vertices or its centre)."""
+    return hull_distance(scale * piece.corners(), handle_box) <= radius
 
 
 def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_cache: bool = True) -> Scene:
@@ -144,6 +147,7 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     pos = np.asarray(config.object_pos, dtype=np.float64)
     handle_obj = t.handle
     handle_local = s * handle_obj.centre  # in the object body frame (object placed at ``pos``)
+    handle_box = s * handle_obj.corners()
 
     root = ET.Element("mujoco", model=f"dragmesh2_{obj.object_id}")
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
@@ -180,7 +184,7 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
         pieces = link_pieces(link, decompose=decompose, config=config.geometry, use_cache=use_cache)
         for k, piece in enumerate(pieces):
             collide = config.collide == "all" or (
-                in_target and _piece_near(piece, handle_local, config.collision_radius, s))
+                in_target and _piece_near(piece, handle_box, config.collision_radius, s))
             rgba = "0.35 0.55 0.8 1" if name in handle_links else "0.75 0.75 0.7 1" if in_target else "0.6 0.6 0.6 0.5"
             _piece_geom(target_body if in_target else obj_body, asset, piece, f"{name}_{k}", s, collide,
                         config.friction, rgba)

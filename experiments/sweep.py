@@ -53,8 +53,8 @@ def run_one(obj: str, method: str, seed: int, args) -> dict:
                                    num_envs=args.num_envs, seed=seed)
             train(trainer, run_dir, obj, save_every=25, progress=not args.quiet)
     trainer, ts, _, ck = load_run(run_dir, args.backend)  # best_robust
-    res = evaluate(trainer, ts, parse_floats(args.damping, "--damping"), ["det", "stoch"], args.episodes,
-                   seed=seed, task=eval_task(trainer.task))
+    res = evaluate(eval_task(trainer.task), trainer.controller(ts), parse_floats(args.damping, "--damping"),
+                   ["det", "stoch"], args.episodes, seed=seed)
     res.update(checkpoint=str(ck), seed=seed, train_eval_seconds=round(time.time() - t0, 1))
     atomic_write_json(result_path, res)
     return res

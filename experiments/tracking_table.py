@@ -32,7 +32,7 @@ def main() -> None:
             continue
         rows = track(task, dampings)
         q = task.traj.header["quality"]
-        cells = " | ".join(f"{int(r['success'])} ({r['final_progress']:.2f})" for r in rows)
+        cells = " | ".join(f"{r['success_rate']:.0f} ({r['progress_mean']:.2f})" for r in rows)
         jt = "revolute" if task.scene.ids.target_is_revolute else "prismatic"
         print(f"| {Path(obj).name} | {task.scene.obj.category} | {jt} | {'pass' if q['passed'] else 'FAIL'} | "
               f"{cells} | {time.time() - t0:.1f} |")

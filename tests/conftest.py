@@ -78,3 +78,11 @@ def drawer_task():
     from dragmesh2_jax.runs import load_task
 
     return load_task(str(default_object()), None, backend="mujoco")
+
+
+def installed_command():
+    """The ``dragmesh2`` command as installed (its console-script entry point), to call in-process."""
+    from importlib.metadata import entry_points
+
+    (ep,) = entry_points(group="console_scripts", name="dragmesh2")
+    return ep.load()

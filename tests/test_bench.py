@@ -3,14 +3,17 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
-from dragmesh2_jax.cli import main
+from tests.conftest import installed_command
+
+dragmesh2 = installed_command()
 
 
 def test_bench_env_json(capsys):
-    assert main(["bench", "env", "--backend", "mujoco", "--num-envs", "1,2", "--steps", "3", "--json"]) == 0
+    assert dragmesh2(["bench", "env", "--backend", "mujoco", "--num-envs", "1,2", "--steps", "3", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert [r["num_envs"] for r in rows] == [1, 2]
     for r in rows:
@@ -36,7 +39,7 @@ def test_bench_train_reports_compile_budget_and_a_seed_column():
 def test_mjx_bench_runs_to_the_end_at_16_worlds_on_a_cpu():
     """jaxlib 0.10's LAPACK deadlock (two batched Cholesky calls on a 2-thread pool) hung here before
     ``avoid_lapack_deadlock``; a fresh process, as a user runs it."""
-    cmd = [sys.executable, "-m", "dragmesh2_jax.cli", "bench", "env", "--backend", "mjx", "--num-envs", "16",
+    cmd = [str(Path(sys.executable).parent / "dragmesh2"), "bench", "env", "--backend", "mjx", "--num-envs", "16",
            "--steps", "2", "--json"]
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr[-2000:]

@@ -2,11 +2,15 @@
 
 import json
 
-from dragmesh2_jax.cli import main
+import pytest
+
+from tests.conftest import installed_command
+
+dragmesh2 = installed_command()
 
 
 def test_inspect_json_on_a_real_object(gapartnet_dir, capsys):
-    assert main(["inspect", str(gapartnet_dir / "45261"), "--json"]) == 0
+    assert dragmesh2(["inspect", str(gapartnet_dir / "45261"), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["category"] == "StorageFurniture"
     assert info["target_joint"]["type"] == "prismatic" and info["target_joint"]["range"] == [0.0, 0.87]
@@ -16,7 +20,7 @@ def test_inspect_json_on_a_real_object(gapartnet_dir, capsys):
 
 def test_inspect_text_and_picture(gapartnet_dir, tmp_path, capsys):
     png = tmp_path / "a.png"
-    assert main(["inspect", str(gapartnet_dir / "11712"), "--render", str(png)]) == 0
+    assert dragmesh2(["inspect", str(gapartnet_dir / "11712"), "--render", str(png)]) == 0
     out = capsys.readouterr().out
     assert "revolute" in out and "Refrigerator" in out
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -26,26 +30,30 @@ def test_evaluate_reports_rates_and_exact_reset_keeps_the_paper_protocol(tmp_pat
     from dragmesh2_jax.assets.procedural import default_object
 
     run = tmp_path / "run"
-    assert main(["train", "--object", str(default_object()), "--out", str(run), "--epochs", "2", "--num-envs", "4",
-                 "--robust-every", "1", "--backend", "mujoco", "--quiet"]) == 0
+    assert dragmesh2(["train", "--object", str(default_object()), "--out", str(run), "--epochs", "2", "--num-envs",
+                      "4", "--robust-every", "1", "--backend", "mujoco", "--quiet", "--task.alpha", "0.04",
+                      "--scene.friction", "1.2", "--ppo.update-epochs", "2"]) == 0
     capsys.readouterr()
-    assert main(["evaluate", "--checkpoint", str(run), "--damping", "1,4", "--mode", "det", "--episodes", "4",
+    record = json.loads((run / "run.json").read_text())  # every config field is a flag, recorded in the run
+    assert record["task"]["alpha"] == 0.04 and record["scene"]["friction"] == 1.2
+    assert record["ppo"]["update_epochs"] == 2 and record["ppo"]["num_envs"] == 4
+    assert dragmesh2(["evaluate", "--checkpoint", str(run), "--damping", "1,4", "--mode", "det", "--episodes", "4",
                  "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     assert res["checkpoint"].endswith("best_robust") and isinstance(res["starts"], dict)
     assert {"success_ci95", "clip099", "clip099_active", "steps_mean", "action_l2_mean"} <= set(res["cells"][0])
-    assert main(["evaluate", "--checkpoint", str(run), "--damping", "1", "--mode", "det", "--episodes", "3",
+    assert dragmesh2(["evaluate", "--checkpoint", str(run), "--damping", "1", "--mode", "det", "--episodes", "3",
                  "--exact-reset", "--json"]) == 0
     exact = json.loads(capsys.readouterr().out)
     assert exact["starts"] == "exact" and exact["cells"][0]["success_rate"] in (0.0, 1.0)  # one episode, repeated
     assert (run / "eval_best_robust_exact.json").is_file()
     for bad in (["--damping", "-1"], ["--damping", "nan"], ["--episodes", "0"]):
-        assert main(["evaluate", "--checkpoint", str(run), *bad]) == 2
+        assert dragmesh2(["evaluate", "--checkpoint", str(run), *bad]) == 2
 
 
 def test_demo_trains_evaluates_and_reports(tmp_path):
     """The main job end to end, with a 2-epoch preset (the real one is 60 epochs on a CPU)."""
-    assert main(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet"]) == 0
+    assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet"]) == 0
     res = json.loads((tmp_path / "eval_best_robust.json").read_text())  # the checkpoint selected by robustness
     assert res["checkpoint"].endswith("best_robust") and res["starts"]["bank"] >= 1  # perturbed starts
     assert sorted((c["damping"], c["mode"]) for c in res["cells"]) == sorted(
@@ -59,9 +67,9 @@ def test_demo_trains_evaluates_and_reports(tmp_path):
     assert (tmp_path / "checkpoints" / "final" / "learner").is_dir()
     frames, width, height = _gif(tmp_path / "policy.gif")
     assert "policy.gif" in report and frames >= 2 and width == 3 * height * 4 // 3  # three panels: x1, x2, x4
-    assert main(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet"]) == 2  # never overwrites a run
+    assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet"]) == 2  # never overwrites a run
     # the same run's policy as a video, two dampings side by side (MP4 asked: GIF where no ffmpeg)
-    assert main(["video", "--checkpoint", str(tmp_path), "--damping", "1,4", "--out", str(tmp_path / "v.mp4"),
+    assert dragmesh2(["video", "--checkpoint", str(tmp_path), "--damping", "1,4", "--out", str(tmp_path / "v.mp4"),
                  "--every", "100", "--backend", "mujoco"]) == 0
     video = next(p for p in (tmp_path / "v.mp4", tmp_path / "v.gif") if p.is_file())
     assert video.suffix == ".mp4" or _gif(video)[1:] == (720, 270)
@@ -74,3 +82,44 @@ def _gif(path) -> tuple[int, int, int]:
     with Image.open(path) as im:
         assert im.format == "GIF"
         return im.n_frames, *im.size
+
+
+def test_a_controller_evaluates_through_the_same_protocol(capsys):
+    """The tracking baseline: the evaluator's cells and metric names, from the protocol's perturbed starts."""
+    from dragmesh2_jax.assets.procedural import default_object
+
+    assert dragmesh2(["evaluate", "--method", "tracking", "--object", str(default_object()), "--damping", "1",
+                      "--mode", "det", "--episodes", "3", "--backend", "mujoco", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    (cell,) = res["cells"]
+    assert res["method"] == "tracking" and isinstance(res["starts"], dict)
+    assert cell["episodes"] == 3 and cell["success_rate"] == 1.0 and 0 <= cell["clip099"] <= 1
+
+
+BAD_INPUT = [
+    ["train", "--out", "{tmp}/x"],  # no object
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--task.damping-range=-1,2"],
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--task.friction-range", "nan,1"],
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--task.damping-fixed", "inf"],
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--scene.friction", "-1"],
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--scene.damping", "nan"],
+    ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "-1"],
+    ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "inf"],
+    ["evaluate", "--method", "teleport", "--object", "{obj}"],
+    ["evaluate", "--object", "{obj}"],  # neither a run nor a controller
+    ["video", "--checkpoint", "{tmp}/none"],
+    ["bench", "soak", "--damping=1,-2"],
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--task.alpha", "fast"],  # a usage error
+    ["spin"],
+]
+
+
+@pytest.mark.parametrize("argv", BAD_INPUT, ids=lambda a: " ".join(a[:1] + a[-2:]))
+def test_bad_input_is_one_error_line_and_status_2(argv, tmp_path, capsys):
+    from dragmesh2_jax.assets.procedural import default_object
+
+    argv = [a.format(tmp=tmp_path, obj=default_object()) for a in argv]
+    assert dragmesh2(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: "), err
+    assert not (tmp_path / "x").exists()  # nothing was written

@@ -47,6 +47,18 @@ class ConvexPiece:
         return self.box_pos + (s * self.box_half) @ self.box_rot.T
 
 
+def hull_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Euclidean distance between the convex hulls of the point sets ``a`` and ``b`` (0 where they overlap): the
+    distance from the origin to hull(a - b), the closest convex combination found by non-negative least squares
+    with the weights' sum pinned to 1 by a heavy extra row."""
+    from scipy.optimize import nnls
+
+    d = (a[:, None, :] - b[None, :, :]).reshape(-1, 3)
+    w = 1e3 * max(1.0, float(np.abs(d).max()))
+    weights, _ = nnls(np.vstack([d.T, np.full(len(d), w)]), np.array([0.0, 0.0, 0.0, w]))
+    return float(np.linalg.norm(d.T @ weights))
+
+
 def oriented_box(v: np.ndarray) -> ConvexPiece:
     """PCA-oriented bounding box with a minimum half thickness (for flat/degenerate pieces)."""
     c = v.mean(axis=0)

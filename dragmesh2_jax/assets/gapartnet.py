@@ -101,6 +101,13 @@ class HandleFrame:
     source: str
     link: str | None
 
+    def corners(self) -> np.ndarray:
+        """The 8 corners of the handle's box (object frame, unscaled)."""
+        s = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64) / 2
+        axes = np.stack([self.length * self.long_axis, self.width * self.short_axis,
+                              self.thickness * self.normal])
+        return self.centre + s @ axes
+
     def scaled(self, scale: float, position=(0.0, 0.0, 0.0)) -> HandleFrame:
         """The same frame in a world where the object is scaled by ``scale`` and moved to ``position``."""
         return HandleFrame(

@@ -28,6 +28,7 @@ CATEGORIES = {
     "refrigerator": ("Refrigerator", "side_door"),
     "trash_can": ("TrashCan", "lid"),
     "table": ("Table", "drawer"),
+    "door": ("Door", "side_door"),  # a frame, a tall hinged panel and a round knob
 }
 
 # PartNet-Mobility's root joint: rpy (pi/2, 0, -pi/2) maps y-up mesh coordinates to the z-up base frame.
@@ -99,6 +100,23 @@ def _handle(centre, long_axis, length, standoff, bar=0.025):
     return [bar_box, *posts], bbox
 
 
+def _knob(centre, standoff, radius, cap=0.02):
+    """A round knob: a stem ``standoff`` out along -x from the surface at ``centre[0]`` and a square cap of half
+    size ``radius`` (box meshes). Returns the boxes and the GAPartNet bbox of the knob."""
+    c = np.asarray(centre, float)
+    stem = _box([c[0] - (standoff - cap) / 2, c[1], c[2]], [(standoff - cap) / 2, radius / 3, radius / 3])
+    cap_box = _box([c[0] - standoff + cap / 2, c[1], c[2]], [cap / 2, radius, radius])
+    bbox = gapartnet_corners([c[0] - standoff / 2, c[1], c[2]], [0, 0, 1.0], [-1.0, 0, 0], 2 * radius, standoff,
+                             2 * radius)
+    return [stem, cap_box], bbox
+
+
+def _frame(W, D, H, t) -> list[_Box]:
+    """Door frame: two jambs and a head behind the panel (front at x = -D/2)."""
+    return [_box([0, W / 2 - t / 2, 0], [D / 2, t / 2, H / 2]), _box([0, -W / 2 + t / 2, 0], [D / 2, t / 2, H / 2]),
+            _box([0, 0, H / 2 - t / 2], [D / 2, W / 2, t / 2])]
+
+
 def _shell(W, D, H, t, open_top=False) -> list[_Box]:
     """Cabinet body: back, two sides, top, bottom (front open). Front at x = -D/2."""
     boxes = [
@@ -129,6 +147,7 @@ def make_object(category: str, seed: int, hinge_side: str | None = None) -> dict
         "dishwasher": (u(0.8, 1.0), u(0.8, 0.9), u(1.0, 1.2)),
         "oven": (u(0.8, 1.0), u(0.8, 0.9), u(0.8, 1.0)),
         "trash_can": (u(0.6, 0.8), u(0.6, 0.8), u(0.9, 1.2)),
+        "door": (u(0.8, 1.0), u(0.10, 0.15), u(1.9, 2.2)),
     }[category]
     W, D, H = dims
     hinge_side = hinge_side or ("left" if rng.uniform() < 0.5 else "right")
@@ -136,7 +155,8 @@ def make_object(category: str, seed: int, hinge_side: str | None = None) -> dict
     links: list[_LinkSpec] = []
     joints: list[dict] = []
     parts: list[dict] = []
-    body = _LinkSpec("link_body", _shell(W, D, H, t, open_top=(kind == "lid")), ("heavy", "body"), None)
+    body_boxes = _frame(W, D, H, t) if category == "door" else _shell(W, D, H, t, open_top=(kind == "lid"))
+    body = _LinkSpec("link_body", body_boxes, ("heavy", "body"), None)
 
     if kind == "drawer":
         n = 1 if category == "table" else int(rng.integers(2, 5))
@@ -194,9 +214,15 @@ def make_object(category: str, seed: int, hinge_side: str | None = None) -> dict
         parts.append({"link": "link_door", "category": cat, "bbox": door_bbox})
         joints.append({"name": "joint_door", "type": "revolute", "child": "link_door", "parent": "link_body",
                        "pivot": pivot, "axis": axis, "limit": [0.0, round(float(np.radians(u(95, 120))), 4)]})
-        hboxes, hbbox = _handle(h_centre, h_long, h_len, standoff, bar)
-        links.append(_LinkSpec("link_handle", hboxes, ("fixed", "handle"), "line_fixed_handle"))
-        parts.append({"link": "link_handle", "category": "line_fixed_handle", "bbox": hbbox})
+        if category == "door":  # a round knob near the free edge, at about a third of the height from the floor
+            h_centre = [-D / 2, h_centre[1], -H / 6]
+            hboxes, hbbox = _knob(h_centre, standoff, u(0.03, 0.04))
+            hcat = "round_fixed_handle"
+        else:
+            hboxes, hbbox = _handle(h_centre, h_long, h_len, standoff, bar)
+            hcat = "line_fixed_handle"
+        links.append(_LinkSpec("link_handle", hboxes, ("fixed", "handle"), hcat))
+        parts.append({"link": "link_handle", "category": hcat, "bbox": hbbox})
         joints.append({"name": "joint_handle", "type": "fixed", "child": "link_handle", "parent": "link_door"})
     links.insert(0, body)
     return {"category": category, "model_cat": model_cat, "seed": seed, "dims": [W, D, H], "links": links,
@@ -295,6 +321,19 @@ def synthesize(category: str, count: int, seed: int, out: str | Path) -> list[Pa
             write_object(make_object(category, s), folder, object_id=f"{category}_{s:04d}")
         paths.append(folder)
     return paths
+
+
+def synthesize_categories(category: str, count: int, seed: int, out: str | Path) -> list[Path]:
+    """``synthesize`` for one category, or for every category with ``category="all"``."""
+    cats = list(CATEGORIES) if category == "all" else [category]
+    if not set(cats) <= set(CATEGORIES):
+        raise DragMeshError(f"unknown category {category!r} (choose from all, {', '.join(CATEGORIES)})")
+    return [p for c in cats for p in synthesize(c, count, seed, out)]
+
+
+def default_objects() -> list[Path]:
+    """The packaged procedural objects (folders)."""
+    return sorted(p for p in default_objects_dir().iterdir() if p.is_dir())
 
 
 def default_objects_dir() -> Path:

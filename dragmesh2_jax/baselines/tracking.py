@@ -1,15 +1,17 @@
 """Trajectory-tracking baseline (paper Table 2, row 1; Appendix A.2): each next reference hand pose of the
 drag phase becomes the hand PD target; the object state is never replayed, so the part opens only if the
-replayed hand motion drags it through contact. One world per damping multiplier, all in one jitted scan."""
+replayed hand motion drags it through contact. It is a controller of the evaluator (``controls="targets"``):
+the same cells and metric names as every policy. After the drag block it holds the last pose."""
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dragmesh2_jax.assets.hand import NUM_DOFS
-from dragmesh2_jax.task.env import PullTask
+from dragmesh2_jax.evaluation.evaluate import Controller, make_rollout
+from dragmesh2_jax.task.env import Obs, PullTask
+
+TRACKING = "tracking"
 
 
 def drag_targets(task: PullTask) -> np.ndarray:
@@ -25,34 +27,19 @@ def drag_targets(task: PullTask) -> np.ndarray:
     return np.repeat(np.asarray(frames, np.float32), hold, axis=0)
 
 
-def track(task: PullTask, dampings: list[float], seed: int = 0, traces: bool = False):
-    """Success (q reached q_done at any step) and final progress per damping multiplier. With ``traces``,
-    also the per-step object q (T, n) and hand q (T, n, 51) of the rollout (for backend parity checks)."""
-    targets = jnp.asarray(drag_targets(task))
-    n = len(dampings)
-    keys = jax.random.split(jax.random.PRNGKey(seed), n)
-    scales = jnp.asarray(dampings, jnp.float32)
+def replay(targets: jnp.ndarray, obs: Obs, key) -> jnp.ndarray:
+    """The PD target of the episode's current step (the last one once the replay is over)."""
+    return targets[jnp.minimum(obs.step, targets.shape[0] - 1)]
 
-    @jax.jit
-    def run(keys, scales):
-        state = jax.vmap(task.reset)(keys, scales)
 
-        def body(carry, target):
-            state, finished, success, progress = carry
-            state = jax.vmap(task.step_target)(state, jnp.broadcast_to(target, (n, NUM_DOFS)))
-            m = state.metrics
-            live = ~finished
-            success = success | (live & (m["success"] > 0))
-            progress = jnp.where(live, m["progress"], progress)
-            finished = finished | state.done
-            return (state, finished, success, progress), (m["q"], state.obs.state[:, :51])
+def tracking_controller(task: PullTask) -> Controller:
+    """The expert drag replayed open-loop (deterministic: det and stoch are the same controller)."""
+    return Controller(TRACKING, lambda deterministic: replay, jnp.asarray(drag_targets(task)), controls="targets")
 
-        init = (state, jnp.zeros(n, bool), jnp.zeros(n, bool), jnp.zeros(n, jnp.float32))
-        (_, _, success, progress), qs = jax.lax.scan(body, init, targets)
-        return success, progress, qs
 
-    success, progress, (qs, hand) = run(keys, scales)
-    rows = [{"damping": float(d), "success": bool(s), "final_progress": float(p), "q_max": float(q)}
-            for d, s, p, q in zip(dampings, np.asarray(success), np.asarray(progress), np.asarray(qs).max(0),
-                                  strict=True)]
-    return (rows, {"q": np.asarray(qs), "hand_q": np.asarray(hand)}) if traces else rows
+def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 0,
+          trace_steps: int = 0) -> list[dict] | tuple[list[dict], dict]:
+    """The evaluator's cells of the tracking baseline on ``task`` (its own starts: exact unless the config
+    perturbs them) at each damping multiplier; with ``trace_steps``, also the first steps' object and hand q."""
+    c = tracking_controller(task)
+    return make_rollout(task, replay, dampings, episodes, c.controls, trace_steps)(c.params, seed)

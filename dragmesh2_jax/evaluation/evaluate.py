@@ -11,8 +11,10 @@ Per cell: success_rate with its 95% Wilson interval, progress_mean (final progre
 locked finger axes take actions that move nothing), detach_rate, action_l2_mean. Robustness per mode: mean and
 worst success over the damping set.
 
-Anything that maps observations to actions evaluates here: a policy is ``policy(params, obs, key) -> action``
-(see ``Trainer.make_policy``).
+Anything that maps observations to controls evaluates here, through one rollout with one set of metric names: a
+policy is ``policy(params, obs, key) -> action`` (Brax's ``make_inference_fn``), packed with its parameters as a
+:class:`Controller` (``Trainer.controller``, ``baselines.tracking.tracking_controller``,
+``baselines.brax_ppo.brax_controller``).
 """
 
 from __future__ import annotations
@@ -20,18 +22,21 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.ppo.train import CLIP_LEVEL
 from dragmesh2_jax.task.env import Obs, PullTask
 
 MODES = ("det", "stoch")
 Z95 = 1.959964  # two-sided 95% normal quantile
 Policy = Callable[[Any, Obs, jax.Array], jnp.ndarray]
+CONTROLS = ("actions", "targets")
 
 
 def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
@@ -45,13 +50,33 @@ def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, floa
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes: int):
+@dataclass(frozen=True)
+class Controller:
+    """What the evaluator runs: ``make_policy(deterministic) -> Policy`` with its ``params``. ``controls`` says what
+    the policy outputs: ``"actions"`` (a in [-1, 1]^51, target = q_hand + alpha a: every learned policy) or
+    ``"targets"`` (the hand PD targets themselves: scripted controllers such as the tracking baseline)."""
+
+    name: str
+    make_policy: Callable[[bool], Policy]
+    params: Any
+    controls: str = "actions"
+
+    def __post_init__(self):
+        if self.controls not in CONTROLS:
+            raise ValueError(f"controls must be one of {CONTROLS}, got {self.controls!r}")
+
+
+def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes: int, controls: str = "actions",
+                 trace_steps: int = 0):
     """``(params, seed) -> per-cell metrics``: one jitted rollout of ``len(dampings) * episodes`` worlds under
-    ``policy``, compiled once and reusable (the in-training robustness check calls it every few epochs)."""
+    ``policy``, compiled once and reusable (the in-training robustness check calls it every few epochs). With
+    ``trace_steps``, it returns ``(cells, traces)``: the object q (T, n) and hand q (T, n, 51) of the first
+    ``trace_steps`` control steps (backend parity checks)."""
     n = len(dampings) * episodes
     scales = jnp.asarray(np.repeat(dampings, episodes), jnp.float32)
     T = task.config.episode_length
-    reset, step = jax.vmap(task.reset), jax.vmap(task.step)
+    reset = jax.vmap(task.reset)
+    step = jax.vmap(task.step_target if controls == "targets" else task.step)
 
     @jax.jit
     def run(params, key):
@@ -59,12 +84,13 @@ def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes
         state = reset(jax.random.split(k_env, n), scales)
         zeros = jnp.zeros(n)
         acc0 = {k: zeros for k in ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret")}
+        trace0 = {"q": jnp.zeros((trace_steps, n)), "hand_q": jnp.zeros((trace_steps, n, NUM_DOFS))}
 
         def body(carry):
-            t, state, live, acc, key = carry
+            t, state, live, acc, trace, key = carry
             key, k = jax.random.split(key)
-            a = jnp.clip(policy(params, state.obs, k), -1.0, 1.0)
-            state = step(state, a)
+            u = policy(params, state.obs, k)
+            state = step(state, u if controls == "targets" else jnp.clip(u, -1.0, 1.0))
             m = state.metrics
             acc = {
                 "steps": acc["steps"] + live, "l2": acc["l2"] + live * m["action_l2"],
@@ -74,22 +100,33 @@ def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes
                     ("success", "success"), ("detach", "detach"), ("progress", "progress"),
                     ("ret", "episode_return"))},
             }
-            return t + 1, state, live & ~state.done, acc, key
+            if trace_steps:
+                i = jnp.minimum(t, trace_steps - 1)
+                keep = t < trace_steps
+                trace = {"q": trace["q"].at[i].set(jnp.where(keep, m["q"], trace["q"][i])),
+                         "hand_q": trace["hand_q"].at[i].set(jnp.where(keep, state.obs.state[:, :NUM_DOFS],
+                                                                         trace["hand_q"][i]))}
+            return t + 1, state, live & ~state.done, acc, trace, key
 
-        init = (jnp.int32(0), state, jnp.ones(n, bool), acc0, k_act)
-        _, _, _, acc, _ = jax.lax.while_loop(lambda c: (c[0] < T) & c[2].any(), body, init)
-        return acc
+        def more(c):
+            return (c[0] < T) & (c[2].any() | (c[0] < trace_steps))
 
-    def cells(params: Any, seed: int = 42) -> list[dict]:
-        return _cell_records(jax.device_get(run(params, jax.random.PRNGKey(seed))), dampings, episodes)
+        init = (jnp.int32(0), state, jnp.ones(n, bool), acc0, trace0, k_act)
+        _, _, _, acc, trace, _ = jax.lax.while_loop(more, body, init)
+        return acc, trace
+
+    def cells(params: Any, seed: int = 42):
+        acc, trace = jax.device_get(run(params, jax.random.PRNGKey(seed)))
+        records = _cell_records(acc, dampings, episodes)
+        return (records, {k: np.asarray(v) for k, v in trace.items()}) if trace_steps else records
 
     return cells
 
 
 def rollout_cells(task: PullTask, policy: Policy, params: Any, dampings: list[float], episodes: int,
-                  seed: int = 42) -> list[dict]:
+                  seed: int = 42, controls: str = "actions") -> list[dict]:
     """One rollout of ``len(dampings) * episodes`` worlds under ``policy``; per-cell metrics (no mode)."""
-    return make_rollout(task, policy, dampings, episodes)(params, seed)
+    return make_rollout(task, policy, dampings, episodes, controls)(params, seed)
 
 
 def _cell_records(acc: dict, dampings: list[float], episodes: int) -> list[dict]:
@@ -123,18 +160,18 @@ def robustness(cells: list[dict], modes: list[str]) -> dict:
     return out
 
 
-def evaluate(trainer, ts, dampings: list[float], modes: list[str], episodes: int = 20, seed: int = 42,
-             task: PullTask | None = None) -> dict:
-    """The protocol for a trained policy: every (damping, mode) cell on ``task`` (default: the trainer's)."""
-    task = task or trainer.task
-    params = trainer.policy_params(ts)
+def evaluate(task: PullTask, controller: Controller, dampings: list[float], modes: list[str], episodes: int = 20,
+             seed: int = 42) -> dict:
+    """The protocol for any controller (a trained policy, a baseline, a scripted primitive): every (damping, mode)
+    cell on ``task``, with one set of metric names."""
     cells = []
     for m in modes:
-        policy = trainer.make_policy(deterministic=m == "det")
-        cells += [{**r, "mode": m} for r in rollout_cells(task, policy, params, dampings, episodes, seed)]
+        policy = controller.make_policy(m == "det")
+        cells += [{**r, "mode": m} for r in rollout_cells(task, policy, controller.params, dampings, episodes, seed,
+                                                           controller.controls)]
     noise = task.config.reset_noise
     return {"cells": cells, "robustness": robustness(cells, modes), "object_id": task.scene.obj.object_id,
-            "method": trainer.method.name, "backend": task.backend.name,
+            "method": controller.name, "backend": task.backend.name,
             "starts": "exact" if noise is None else dataclasses.asdict(noise)}
 
 

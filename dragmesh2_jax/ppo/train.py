@@ -196,6 +196,12 @@ class Trainer:
 
         return policy
 
+    def controller(self, ts: TrainState):
+        """The trained policy of ``ts`` as the evaluator's :class:`Controller`."""
+        from dragmesh2_jax.evaluation.evaluate import Controller
+
+        return Controller(self.method.name, self.make_policy, self.policy_params(ts))
+
     def init(self, seed: int | None = None) -> TrainState:
         """A new run's state (parameters, optimiser, worlds) from ``seed`` (default: the config's)."""
         run = self._program("init", lambda t: jax.jit(lambda data, key: t.bind(data)._init(key)))
@@ -239,7 +245,7 @@ class Trainer:
                                    lambda o: jnp.zeros_like(v), nxt.final_obs)
             reward = nxt.reward + c.gamma * denorm(v_final) * nxt.truncated
             out = {"state": obs.state, "history": obs.history, "aux": obs.aux, "privileged": obs.privileged,
-                   "action": a,
+                   "step": obs.step, "action": a,
                    "logp": gaussian_logp(a, mu, log_std), "mu": mu, "log_std": jnp.broadcast_to(log_std, mu.shape),
                    "value": v, "reward": reward,
                    "done": nxt.done.astype(jnp.float32), "metrics": nxt.metrics, "terminated": nxt.terminated}
@@ -284,7 +290,7 @@ class Trainer:
         n = c.num_envs * c.rollout_len
         flat = lambda x: x.reshape(n, *x.shape[2:])  # noqa: E731
         obs = Obs(state=flat(traj["state"]), history=flat(traj["history"]), aux=flat(traj["aux"]),
-                  privileged=flat(traj["privileged"]))
+                  privileged=flat(traj["privileged"]), step=flat(traj["step"]))
         s_in, h_in, p_in = self.inputs(ts, obs)
         # values were predicted in the old value normalisation: re-express old predictions and targets in the new
         old_v = flat(traj["value"]) * jnp.sqrt(ts.value_stats.var[0] + 1e-5) + ts.value_stats.mean[0]

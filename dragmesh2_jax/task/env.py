@@ -17,6 +17,8 @@ Observation (kept as separate fields, so each policy takes what it may):
                A training target only: never a policy input.
   obs.privileged (2 + 22): [damping multiplier, friction multiplier, contact load f_t]: for an asymmetric
                critic only, never an actor input.
+  obs.step     the control step within the episode (0 at reset): what a time-indexed controller reads (the
+               tracking baseline's replay, the parallel-jaw primitive's phases); no network input.
 With ``TaskConfig.force_obs`` (beyond the paper) the contact load f_t (22) is appended to s_t (-> 142) and to
 every history token (-> 124). f_t = signed log1p of [wrist force (3, N), wrist torque (3, N m), normal contact
 force on the palm and each of the 15 phalanges (16, N)], so that a grip and a yank fit one scale.
@@ -65,6 +67,7 @@ class Obs:
     history: jnp.ndarray
     aux: jnp.ndarray
     privileged: jnp.ndarray
+    step: jnp.ndarray  # int32 control step within the episode
 
 
 @struct.dataclass
@@ -294,7 +297,8 @@ class PullTask:
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
             "stall": jnp.int32(0), "cooldown": jnp.int32(0), "aram_lambda": jnp.float32(0.0),
         }
-        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k))
+        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k),
+                  step=info["step"])
         zero = jnp.float32(0.0)
         metrics = {m: zero for m in METRICS}
         metrics["q"] = k.obj_q.astype(jnp.float32)
@@ -361,7 +365,7 @@ class PullTask:
                     "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)), "episode_return": ep_return,
                     "d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(new_info),
-                  privileged=self._privileged(new_info, k))
+                  privileged=self._privileged(new_info, k), step=step)
         done = terminated | truncated
         metrics = {
             "success": success.astype(jnp.float32), "progress": self.progress(q), "detach": detach.astype(jnp.float32),

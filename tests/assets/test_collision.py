@@ -1,6 +1,7 @@
 """Collision pieces: bounded hulls, boxes for degenerate meshes, decomposition of concave handles, caching."""
 
 import numpy as np
+import pytest
 
 from dragmesh2_jax.assets import collision
 
@@ -42,3 +43,13 @@ def test_l_shaped_handle_is_decomposed_into_several_pieces():
     v, f = _l_shape()
     parts = collision._decompose(v, f, max_pieces=4, threshold=0.05)
     assert len(parts) >= 2
+
+
+def test_hull_distance_is_surface_to_surface():
+    """A large flat panel is near a knob in front of it, though its corners and its centre are far."""
+    s = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
+    panel = s * [0.005, 1.0, 1.0]  # 2 m x 2 m, 1 cm thick, centred at the origin
+    knob = s * 0.02 + [-0.1, 0.9, -0.9]  # 4 cm cube 10 cm in front of the panel, near one corner
+    assert np.linalg.norm(panel - knob.mean(0), axis=1).min() > 0.1  # every panel vertex is farther
+    assert collision.hull_distance(panel, knob) == pytest.approx(0.1 - 0.02 - 0.005, abs=1e-4)
+    assert collision.hull_distance(panel, s * 0.01) == pytest.approx(0.0, abs=1e-6)  # overlapping

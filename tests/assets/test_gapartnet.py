@@ -120,9 +120,11 @@ def test_bad_input_gives_one_line_error_naming_the_file(obj_copy, tmp_path, case
 
 
 def test_cli_reports_bad_input_with_status_2_and_no_traceback(tmp_path, capsys):
-    from dragmesh2_jax.cli import main
+    from tests.conftest import installed_command
 
-    assert main(["inspect", str(tmp_path / "missing")]) == 2
+    dragmesh2 = installed_command()
+
+    assert dragmesh2(["inspect", str(tmp_path / "missing")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1 and "Traceback" not in err
 

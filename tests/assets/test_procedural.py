@@ -80,9 +80,30 @@ def test_packaged_defaults_load():
 
 
 def test_cli_synth(tmp_path, capsys):
-    from dragmesh2_jax.cli import main
+    from tests.conftest import installed_command
 
-    assert main(["objects", "synth", "--category", "trash_can", "--count", "2", "--seed", "1", "--out",
+    dragmesh2 = installed_command()
+
+    assert dragmesh2(["objects", "synth", "--category", "trash_can", "--count", "2", "--seed", "1", "--out",
                  str(tmp_path)]) == 0
     assert len(capsys.readouterr().out.split()) == 2
-    assert main(["objects", "synth", "--category", "spaceship", "--count", "1", "--out", str(tmp_path)]) == 2
+    assert dragmesh2(["objects", "synth", "--category", "spaceship", "--count", "1", "--out", str(tmp_path)]) == 2
+
+
+def test_a_door_with_a_round_knob_loads_and_its_expert_drag_opens_it(tmp_path):
+    """A frame, a tall hinged panel and a round knob (GAPartNet's Door category): the knob is the handle, the
+    panel collides near it, the generated trajectory passes the gate and tracking it opens the door at x1."""
+    from dragmesh2_jax.baselines.tracking import track
+    from dragmesh2_jax.runs import load_task
+
+    folder = procedural.write_object(procedural.make_object("door", 0), tmp_path / "door", "door")
+    obj = load_gapartnet(folder)
+    assert obj.category == "Door" and obj.target.part.category == "hinge_door"
+    assert obj.target.handle.source == "handle" and obj.target.handle.link == "link_handle"
+    assert next(p for p in obj.parts if p.link == "link_handle").category == "round_fixed_handle"
+    panel = next(p for p in obj.parts if p.link == "link_door").bbox
+    assert np.ptp(panel[:, 2]) > 1.8  # a tall panel (unscaled), its corners far from the knob
+    task = load_task(str(folder), None, backend="mujoco")
+    assert task.scene.stats["collision_pieces"] >= 2  # the panel and the knob
+    assert task.traj.header["quality"]["passed"]
+    assert track(task, [1.0])[0]["success_rate"] == 1.0

@@ -140,7 +140,7 @@ def test_aux_targets_are_not_a_network_input():
     src = inspect.getsource(Trainer.inputs)
     assert "obs.aux" not in src
     obs = Obs(state=jnp.ones((2, 120)), history=jnp.ones((2, 16, 102)), aux=jnp.zeros((2, 4)),
-              privileged=jnp.zeros((2, 24)))
+              privileged=jnp.zeros((2, 24)), step=jnp.zeros(2, jnp.int32))
     net = ActorCritic(encoder="gla")
     params = net.init(jax.random.PRNGKey(0), obs.state, obs.history, obs.privileged, method=ActorCritic.init_all)
     trainer = SimpleNamespace(net=net, config=SimpleNamespace(normalize_obs=False))

@@ -32,7 +32,7 @@ class PointMass:
         return ("point_mass",)
 
     def _obs(self, x):
-        return Obs(state=x, history=jnp.zeros((2, 4)), aux=jnp.zeros(1), privileged=jnp.zeros(1))
+        return Obs(state=x, history=jnp.zeros((2, 4)), aux=jnp.zeros(1), privileged=jnp.zeros(1), step=jnp.int32(0))
 
     def reset(self, key, damping_scale=None):
         key, k = jax.random.split(key)

@@ -18,7 +18,7 @@ def tracking_rollouts(gapartnet_dir, tmp_path_factory):
             path = tmp_path_factory.mktemp("traj") / f"{oid}.json"
             write_trajectory(generate(load_gapartnet(gapartnet_dir / oid)), path)
             cache[oid] = {b: track(load_task(str(gapartnet_dir / oid), str(path), backend=b), [1.0, 2.0, 4.0],
-                                   traces=True) for b in ("mujoco", "mjx")}
+                                   trace_steps=60) for b in ("mujoco", "mjx")}
         return cache[oid]
 
     return get

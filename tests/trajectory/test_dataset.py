@@ -4,8 +4,10 @@ import csv
 import shutil
 
 from dragmesh2_jax.assets import procedural
-from dragmesh2_jax.cli import main
 from dragmesh2_jax.trajectory.dataset import build_dataset
+from tests.conftest import installed_command
+
+dragmesh2 = installed_command()
 
 
 def test_build_resume_and_isolated_failure(tmp_path):
@@ -33,6 +35,6 @@ def test_build_resume_and_isolated_failure(tmp_path):
 
 def test_cli_trajectory_and_dataset(tmp_path, capsys):
     obj = procedural.synthesize("oven", 1, seed=3, out=tmp_path / "o")[0]
-    assert main(["trajectory", "--object", str(obj), "--out", str(tmp_path / "t.json")]) == 0
+    assert dragmesh2(["trajectory", "--object", str(obj), "--out", str(tmp_path / "t.json")]) == 0
     assert "PASSED" in capsys.readouterr().out
-    assert main(["dataset", "build", "--objects", str(tmp_path / "nope"), "--out", str(tmp_path / "d")]) == 2
+    assert dragmesh2(["dataset", "build", "--objects", str(tmp_path / "nope"), "--out", str(tmp_path / "d")]) == 2

@@ -1,0 +1,84 @@
+"""Our PPO against brax's PPO (an independent implementation) on the state-only baseline, at the same budget.
+
+    python experiments/brax_check.py --seeds 0,1,2 --epochs 150 --out results/brax_check
+
+Both train the state-only preset's task (exact expert-grasp start, nominal damping) for ``epochs`` x num_envs x
+rollout_len environment steps with the same hyper-parameters (``baselines/brax_ppo.py``); both final policies
+are evaluated by the same evaluator (perturbed starts, damping x1/x2/x4, 20 episodes per cell).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.baselines.brax_ppo import train_brax_ppo
+from dragmesh2_jax.evaluation.evaluate import evaluate
+from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.runs import eval_task, make_trainer, parse_floats
+
+DAMPINGS = [1.0, 2.0, 4.0]
+
+
+def ours(trainer, seed: int):
+    ts = trainer.init(seed)
+    for _ in range(trainer.config.epochs):
+        ts, _ = trainer.epoch(ts)
+    return trainer.controller(ts)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--object", default=str(default_object()))
+    p.add_argument("--seeds", default="0,1,2")
+    p.add_argument("--epochs", type=int, default=150)
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--out", default="results/brax_check")
+    args = p.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    trainer = make_trainer(args.object, None, "state_only", "mujoco", epochs=args.epochs)
+    task = eval_task(trainer.task)
+    rows = []
+    for seed in [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]:
+        for impl in ("ours", "brax"):
+            path = out / f"{impl}_s{seed}.json"
+            if path.is_file():
+                rows.append(json.loads(path.read_text()))
+                continue
+            t0 = time.time()
+            if impl == "ours":
+                controller = ours(trainer, seed)
+            else:
+                controller, _ = train_brax_ppo(trainer.task, dataclasses.replace(trainer.config, seed=seed))
+            seconds = time.time() - t0
+            res = evaluate(task, controller, DAMPINGS, ["det", "stoch"], args.episodes, seed=seed)
+            res.update(impl=impl, seed=seed, train_seconds=round(seconds, 1))
+            atomic_write_json(path, res)
+            rows.append(res)
+            print(impl, seed, f"{seconds:.0f} s", [(c["mode"], c["damping"], c["success_rate"]) for c in res["cells"]],
+                  flush=True)
+    lines = ["| PPO | mode | " + " | ".join(f"x{d:g}" for d in DAMPINGS) + " | train s |", "|---" * 6 + "|"]
+    for impl in ("ours", "brax"):
+        rs = [r for r in rows if r["impl"] == impl]
+        for mode in ("det", "stoch"):
+            cells = []
+            for d in DAMPINGS:
+                v = np.array([c["success_rate"] for r in rs for c in r["cells"] if c["mode"] == mode
+                              and c["damping"] == d])
+                cells.append(f"{v.mean():.2f} ± {v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0:.2f}")
+            secs = np.mean([r["train_seconds"] for r in rs])
+            lines.append(f"| {impl} | {mode} | " + " | ".join(cells) + f" | {secs:.0f} |")
+    table = "\n".join(lines)
+    (out / "table.md").write_text(table + "\n")
+    print(table)
+
+
+if __name__ == "__main__":
+    main()
