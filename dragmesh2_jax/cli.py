@@ -85,7 +85,9 @@ def cmd_trajectory(args) -> int:
 def cmd_dataset(args) -> int:
     from dragmesh2_jax.trajectory.dataset import build_dataset
 
-    res = build_dataset(args.objects, args.out, progress=not args.quiet)
+    if args.procedural < 0:
+        raise DragMeshError(f"--procedural must be >= 0, got {args.procedural}")
+    res = build_dataset(args.objects, args.out, progress=not args.quiet, procedural=args.procedural, seed=args.seed)
     print(Path(res.summary).read_text())
     print(f"manifest {res.manifest}; {len(res.records) - len(res.failures)} of {len(res.records)} passed")
     return 0
@@ -211,6 +213,19 @@ def cmd_evaluate(args) -> int:
     return 0
 
 
+def cmd_reproduce(args) -> int:
+    from dragmesh2_jax.assets.procedural import default_object
+    from dragmesh2_jax.reproduce import ReproduceConfig, reproduce
+
+    seeds = [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]
+    config = ReproduceConfig(objects=tuple(args.objects or [str(default_object())]), seeds=tuple(seeds),
+                             epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend)
+    for path in reproduce(args.tables, config, args.out, progress=not args.quiet):
+        print(path.read_text())
+        _err(f"table: {path}")
+    return 0
+
+
 def cmd_demo(args) -> int:
     """The main job on the built-in default: trajectory -> PICA training -> evaluation x1/x2/x4 -> report."""
     from dragmesh2_jax.demo import run_demo
@@ -328,7 +343,10 @@ def build_parser() -> argparse.ArgumentParser:
     pds = sub.add_parser("dataset", help="trajectory datasets")
     dsub = pds.add_subparsers(dest="dataset_cmd", required=True)
     pb = dsub.add_parser("build", help="one trajectory per object folder; resumable")
-    pb.add_argument("--objects", nargs="+", required=True, help="object folders or folders of object folders")
+    pb.add_argument("--objects", nargs="*", default=[], help="object folders or folders of object folders")
+    pb.add_argument("--procedural", type=int, default=0, metavar="N",
+                    help="also N procedural objects in the paper's Table 1 category mix (277: the paper's counts)")
+    pb.add_argument("--seed", type=int, default=0, help="first seed of the procedural objects")
     pb.add_argument("--out", required=True)
     pb.add_argument("--quiet", action="store_true")
     pds.set_defaults(func=cmd_dataset)
@@ -404,7 +422,8 @@ def build_parser() -> argparse.ArgumentParser:
     pev.add_argument("--checkpoint",
                      help="a run folder (its best_robust checkpoint, else final) or one of its checkpoints/*")
     pev.add_argument("--method", help="a controller that needs no training, instead of --checkpoint: tracking "
-                                      "(the expert drag replayed as PD targets)")
+                                      "(the expert drag replayed as PD targets) | parallel_jaw (the GT-part-pose "
+                                      "gripper primitive)")
     pev.add_argument("--object", help="object folder (with --method)")
     pev.add_argument("--trajectory", help="trajectory file (with --method; default: generate one)")
     pev.add_argument("--damping", default="1,2,4")
@@ -416,6 +435,21 @@ def build_parser() -> argparse.ArgumentParser:
     pev.add_argument("--json", action="store_true")
     _add_backend_args(pev)
     pev.set_defaults(func=cmd_evaluate)
+
+    prp = sub.add_parser("reproduce", help="the paper's tables end to end: training, fine-tunes, evaluations, "
+                                           "markdown, Figure 2 (resumable)")
+    prp.add_argument("tables", nargs="+", choices=["main", "ablation", "train-length", "ood", "continued",
+                                                    "damping-range", "all"])
+    prp.add_argument("--objects", nargs="+", help="object folders (default: the packaged drawer); the first is the "
+                                                  "diagnostic object of the appendix tables")
+    prp.add_argument("--seeds", default="0,1,2")
+    prp.add_argument("--epochs", type=int, default=150, help="base budget; the appendix epochs scale with it")
+    prp.add_argument("--num-envs", type=int)
+    prp.add_argument("--episodes", type=int, default=20, help="episodes per cell")
+    prp.add_argument("--out", default="out/reproduce")
+    prp.add_argument("--backend", default="auto")
+    prp.add_argument("--quiet", action="store_true")
+    prp.set_defaults(func=cmd_reproduce)
 
     pd = sub.add_parser("demo", help="the main job: trajectory, PICA training, evaluation, report")
     pd.add_argument("--object", help="object folder (default: the packaged drawer cabinet)")

@@ -122,8 +122,9 @@ def make_finetune(checkpoint: str | Path, name: str, backend: str = "auto", impl
     ft = get_finetune(name)
     parent, ts, run_dir, ck = load_run(checkpoint, backend, impl)
     meta = run_meta(run_dir)
-    if meta.get("finetune"):
-        raise DragMeshError(f"{run_dir} is itself a fine-tune ({meta['finetune']}); start from its parent run")
+    if meta.get("finetune") and meta.get("format", 1) < 2:  # its record lacks the task config the preset changed
+        raise DragMeshError(f"{run_dir} is a fine-tune recorded before run records held the task config; start "
+                            "from its parent run")
     more = ft.epochs if epochs is None else epochs
     if more < 1:
         raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")
@@ -296,10 +297,12 @@ def evaluate_checkpoint(checkpoint: str, dampings: list[float], modes: list[str]
 
 
 def baseline_controllers() -> dict:
-    """Controllers that need no training, by name: ``name -> (task -> Controller)``."""
+    """Controllers that need no training, by name: ``name -> (task -> (the task it runs, Controller))`` (the
+    primitive runs its own gripper in the task's place)."""
+    from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
     from dragmesh2_jax.baselines.tracking import TRACKING, tracking_controller
 
-    return {TRACKING: tracking_controller}
+    return {TRACKING: lambda task: (task, tracking_controller(task)), PARALLEL_JAW: parallel_jaw}
 
 
 def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, dampings: list[float], modes: list[str],
@@ -313,8 +316,8 @@ def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, dampin
         raise DragMeshError(f"unknown controller {name!r} (choose from {', '.join(known)}; trained policies are "
                             "evaluated with --checkpoint)")
     check_protocol(modes, episodes)
-    task = eval_task(load_task(object_dir, trajectory, backend, impl), exact_reset=exact_reset)
-    return evaluate(task, known[name](task), dampings, modes, episodes, seed=seed)
+    task, controller = known[name](eval_task(load_task(object_dir, trajectory, backend, impl), exact_reset=exact_reset))
+    return evaluate(task, controller, dampings, modes, episodes, seed=seed)
 
 
 def check_protocol(modes: list[str], episodes: int) -> None:

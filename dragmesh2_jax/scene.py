@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from dragmesh2_jax.assets import gripper as gripper_lib
 from dragmesh2_jax.assets import hand as hand_lib
 from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, hull_distance, link_pieces
 from dragmesh2_jax.assets.gapartnet import GAPartNetObject, HandleFrame
@@ -35,7 +36,8 @@ SENSORS = ("palm_pos", "handle_pos", "handle_xaxis", "handle_yaxis")
 #: Contact-load sensors after them (22 values): the wrist force and torque (N, N m; the load the virtual arm
 #: carries, in the wrist frame) and the normal contact force on the palm and on each of the 15 phalanges (N).
 FORCE_SENSORS = ("wrist_force", "wrist_torque")
-FORCE_SIZE = 6 + 16
+FORCE_SIZE = 6 + 16  # with the hand; the gripper's is 6 + 3 (palm, two pads). The load sensors come last.
+EFFECTORS = ("hand", "parallel_jaw")
 WRIST_SITE = "wrist_ft"
 TARGET_JOINT = "target_joint"
 TARGET_BODY = "object_target"
@@ -56,7 +58,9 @@ class SceneConfig:
     gravity: bool = True
     solver_iterations: int = 4
     ls_iterations: int = 8
+    effector: str = "hand"  # "hand" (the 51-DoF hand) | "parallel_jaw" (the primitive's gripper)
     hand: hand_lib.HandConfig = field(default_factory=hand_lib.HandConfig)
+    gripper: gripper_lib.GripperConfig = field(default_factory=gripper_lib.GripperConfig)
     geometry: GeometryConfig = field(default_factory=GeometryConfig)
 
     def __post_init__(self):
@@ -70,6 +74,22 @@ class SceneConfig:
             raise DragMeshError(f"object friction must be finite and >= 0, got {self.friction}")
         if self.collide not in ("target", "all"):
             raise DragMeshError(f"collide must be 'target' or 'all', got {self.collide!r}")
+        if self.effector not in EFFECTORS:
+            raise DragMeshError(f"effector must be one of {', '.join(EFFECTORS)}, got {self.effector!r}")
+
+    @property
+    def effector_names(self) -> dict:
+        """DoF, palm site, wrist body and touch site names of the effector."""
+        if self.effector == "hand":
+            side = self.hand.side
+            return {"dofs": hand_lib.dof_names(side), "palm": hand_lib.palm_site_name(side),
+                    "wrist": hand_lib.wrist_body_name(side), "touch": hand_lib.touch_site_names(side)}
+        return {"dofs": gripper_lib.dof_names(), "palm": gripper_lib.palm_site_name(),
+                "wrist": gripper_lib.wrist_body_name(), "touch": gripper_lib.touch_site_names()}
+
+    def active_dofs(self) -> np.ndarray:
+        """The effector DoFs that move (the hand locks 24 finger axes)."""
+        return hand_lib.active_dofs(self.hand) if self.effector == "hand" else gripper_lib.active_dofs()
 
 
 @dataclass(frozen=True)
@@ -161,7 +181,8 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     asset = ET.SubElement(root, "asset")
     world = ET.SubElement(root, "worldbody")
     ET.SubElement(world, "light", pos="0 -1 2.5", dir="0.2 0.4 -1", directional="true", diffuse="0.8 0.8 0.8")
-    hand_body, actuators = hand_lib.build_hand_mjcf(config.hand)
+    hand_body, actuators = (hand_lib.build_hand_mjcf(config.hand) if config.effector == "hand"
+                            else gripper_lib.build_gripper_mjcf(config.gripper))
     ET.SubElement(hand_body, "site", name=WRIST_SITE, pos="0 0 0", size="0.005", group="4")
     world.append(hand_body)
 
@@ -209,14 +230,14 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     obj_body.append(target_body)
     root.append(actuators)
     sensor = ET.SubElement(root, "sensor")
-    palm_site = hand_lib.palm_site_name(config.hand.side)
-    ET.SubElement(sensor, "framepos", name=SENSORS[0], objtype="site", objname=palm_site)
+    eff = config.effector_names
+    ET.SubElement(sensor, "framepos", name=SENSORS[0], objtype="site", objname=eff["palm"])
     ET.SubElement(sensor, "framepos", name=SENSORS[1], objtype="site", objname=HANDLE_SITE)
     ET.SubElement(sensor, "framexaxis", name=SENSORS[2], objtype="site", objname=HANDLE_SITE)
     ET.SubElement(sensor, "frameyaxis", name=SENSORS[3], objtype="site", objname=HANDLE_SITE)
     ET.SubElement(sensor, "force", name=FORCE_SENSORS[0], site=WRIST_SITE)
     ET.SubElement(sensor, "torque", name=FORCE_SENSORS[1], site=WRIST_SITE)
-    for name in hand_lib.touch_site_names(config.hand.side):
+    for name in eff["touch"]:
         ET.SubElement(sensor, "touch", name=name, site=name)
     xml = ET.tostring(root, encoding="unicode")
     try:
@@ -224,7 +245,7 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     except ValueError as e:
         raise DragMeshError(f"{obj.folder}: MuJoCo cannot compile the scene ({str(e).splitlines()[0]})") from None
 
-    names = hand_lib.dof_names(config.hand.side)
+    names = eff["dofs"]
     jid = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in names]
     tj = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, TARGET_JOINT)
     hand_geoms = np.array([g for g in range(model.ngeom) if model.geom_contype[g] == 1])
@@ -237,8 +258,8 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
         target_qpos=int(model.jnt_qposadr[tj]), target_dof=int(model.jnt_dofadr[tj]),
         target_range=(float(lower), float(upper)), target_is_revolute=bool(j.is_revolute),
         handle_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, HANDLE_SITE),
-        palm_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, hand_lib.palm_site_name(config.hand.side)),
-        wrist_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, hand_lib.wrist_body_name(config.hand.side)),
+        palm_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, eff["palm"]),
+        wrist_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, eff["wrist"]),
         hand_geoms=hand_geoms, object_collision_geoms=obj_geoms,
     )
     stats = {"collision_pieces": int(n_collide), "pieces": int(n_pieces), "max_hull_vertices": int(max_verts),

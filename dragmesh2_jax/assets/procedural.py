@@ -323,6 +323,39 @@ def synthesize(category: str, count: int, seed: int, out: str | Path) -> list[Pa
     return paths
 
 
+#: Paper Table 1: trajectories per GAPartNet category in the authors' dataset (277 in all).
+PAPER_TABLE1 = {"StorageFurniture": 256, "TrashCan": 7, "Dishwasher": 5, "Refrigerator": 4, "Oven": 3,
+                "Microwave": 1, "Table": 1}
+#: Generator categories standing for each GAPartNet category of Table 1 (StorageFurniture: drawers and doors,
+#: alternately).
+TABLE1_CATEGORIES = {"StorageFurniture": ("drawer_cabinet", "door_cabinet"), "TrashCan": ("trash_can",),
+                     "Dishwasher": ("dishwasher",), "Refrigerator": ("refrigerator",), "Oven": ("oven",),
+                     "Microwave": ("microwave",), "Table": ("table",)}
+
+
+def table1_mix(n: int) -> dict[str, int]:
+    """Objects per generator category for ``n`` objects in the paper's Table 1 proportions (largest remainder;
+    ``n = 277`` gives exactly the paper's counts)."""
+    if n < 1:
+        raise DragMeshError(f"the number of procedural objects must be >= 1, got {n}")
+    total = sum(PAPER_TABLE1.values())
+    share = {c: n * k / total for c, k in PAPER_TABLE1.items()}
+    counts = {c: int(s) for c, s in share.items()}
+    for c in sorted(share, key=lambda c: counts[c] - share[c])[: n - sum(counts.values())]:
+        counts[c] += 1
+    mix: dict[str, int] = {}
+    for gap_cat, k in counts.items():
+        cats = TABLE1_CATEGORIES[gap_cat]
+        for i, c in enumerate(cats):
+            mix[c] = mix.get(c, 0) + k // len(cats) + (i < k % len(cats))
+    return {c: k for c, k in mix.items() if k}
+
+
+def synthesize_table1(n: int, seed: int, out: str | Path) -> list[Path]:
+    """``n`` procedural objects in the paper's Table 1 mix under ``out`` (resumable, as ``synthesize``)."""
+    return [p for c, k in table1_mix(n).items() for p in synthesize(c, k, seed, out)]
+
+
 def synthesize_categories(category: str, count: int, seed: int, out: str | Path) -> list[Path]:
     """``synthesize`` for one category, or for every category with ``category="all"``."""
     cats = list(CATEGORIES) if category == "all" else [category]

@@ -34,7 +34,8 @@ def replay(targets: jnp.ndarray, obs: Obs, key) -> jnp.ndarray:
 
 def tracking_controller(task: PullTask) -> Controller:
     """The expert drag replayed open-loop (deterministic: det and stoch are the same controller)."""
-    return Controller(TRACKING, lambda deterministic: replay, jnp.asarray(drag_targets(task)), controls="targets")
+    return Controller(TRACKING, lambda deterministic: replay, jnp.asarray(drag_targets(task)), controls="targets",
+                      key=TRACKING)
 
 
 def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 0,
@@ -42,4 +43,4 @@ def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 
     """The evaluator's cells of the tracking baseline on ``task`` (its own starts: exact unless the config
     perturbs them) at each damping multiplier; with ``trace_steps``, also the first steps' object and hand q."""
     c = tracking_controller(task)
-    return make_rollout(task, replay, dampings, episodes, c.controls, trace_steps)(c.params, seed)
+    return make_rollout(task, replay, dampings, episodes, c.controls, trace_steps, key=c.key)(c.params, seed)

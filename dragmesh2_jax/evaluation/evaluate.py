@@ -19,9 +19,10 @@ policy is ``policy(params, obs, key) -> action`` (Brax's ``make_inference_fn``),
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,7 +30,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.ppo.train import CLIP_LEVEL
 from dragmesh2_jax.task.env import Obs, PullTask
 
@@ -60,6 +60,7 @@ class Controller:
     make_policy: Callable[[bool], Policy]
     params: Any
     controls: str = "actions"
+    key: Hashable | None = None  # what make_policy's functions depend on besides params: shares compiled rollouts
 
     def __post_init__(self):
         if self.controls not in CONTROLS:
@@ -67,24 +68,45 @@ class Controller:
 
 
 def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes: int, controls: str = "actions",
-                 trace_steps: int = 0):
+                 trace_steps: int = 0, key: Hashable | None = None):
     """``(params, seed) -> per-cell metrics``: one jitted rollout of ``len(dampings) * episodes`` worlds under
-    ``policy``, compiled once and reusable (the in-training robustness check calls it every few epochs). With
-    ``trace_steps``, it returns ``(cells, traces)``: the object q (T, n) and hand q (T, n, 51) of the first
-    ``trace_steps`` control steps (backend parity checks)."""
+    ``policy``, compiled once and reusable (the in-training robustness check calls it every few epochs). The
+    object's data is an argument of the program, so with ``key`` (what ``policy`` depends on besides its params,
+    e.g. ``Trainer.signature()``) every object, checkpoint and seed of the same structure shares one compiled
+    rollout. With ``trace_steps``, it returns ``(cells, traces)``: the object q (T, n) and hand q (T, n, 51) of
+    the first ``trace_steps`` control steps (backend parity checks)."""
+    cache_key = None if key is None else (key, task.signature(), tuple(dampings), episodes, controls, trace_steps)
+    if cache_key is None or cache_key not in _ROLLOUTS:
+        run = _compile_rollout(task, policy, dampings, episodes, controls, trace_steps)
+        if cache_key is None:
+            return _cells(run, task, dampings, episodes, trace_steps)
+        _ROLLOUTS[cache_key] = run
+        while len(_ROLLOUTS) > ROLLOUT_CACHE_SIZE:
+            _ROLLOUTS.popitem(last=False)
+    _ROLLOUTS.move_to_end(cache_key)
+    return _cells(_ROLLOUTS[cache_key], task, dampings, episodes, trace_steps)
+
+
+ROLLOUT_CACHE_SIZE = 16  # compiled evaluation rollouts kept
+_ROLLOUTS: collections.OrderedDict[tuple, Any] = collections.OrderedDict()
+
+
+def _compile_rollout(template: PullTask, policy: Policy, dampings: list[float], episodes: int, controls: str,
+                     trace_steps: int):
     n = len(dampings) * episodes
     scales = jnp.asarray(np.repeat(dampings, episodes), jnp.float32)
-    T = task.config.episode_length
-    reset = jax.vmap(task.reset)
-    step = jax.vmap(task.step_target if controls == "targets" else task.step)
+    T = template.config.episode_length
 
     @jax.jit
-    def run(params, key):
+    def run(data, params, key):
+        task = template.bind(data)
+        reset = jax.vmap(task.reset)
+        step = jax.vmap(task.step_target if controls == "targets" else task.step)
         k_env, k_act = jax.random.split(key)
         state = reset(jax.random.split(k_env, n), scales)
         zeros = jnp.zeros(n)
         acc0 = {k: zeros for k in ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret")}
-        trace0 = {"q": jnp.zeros((trace_steps, n)), "hand_q": jnp.zeros((trace_steps, n, NUM_DOFS))}
+        trace0 = {"q": jnp.zeros((trace_steps, n)), "hand_q": jnp.zeros((trace_steps, n, task.action_size))}
 
         def body(carry):
             t, state, live, acc, trace, key = carry
@@ -104,7 +126,7 @@ def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes
                 i = jnp.minimum(t, trace_steps - 1)
                 keep = t < trace_steps
                 trace = {"q": trace["q"].at[i].set(jnp.where(keep, m["q"], trace["q"][i])),
-                         "hand_q": trace["hand_q"].at[i].set(jnp.where(keep, state.obs.state[:, :NUM_DOFS],
+                         "hand_q": trace["hand_q"].at[i].set(jnp.where(keep, state.obs.state[:, :task.action_size],
                                                                          trace["hand_q"][i]))}
             return t + 1, state, live & ~state.done, acc, trace, key
 
@@ -115,8 +137,12 @@ def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes
         _, _, _, acc, trace, _ = jax.lax.while_loop(more, body, init)
         return acc, trace
 
+    return run
+
+
+def _cells(run, task: PullTask, dampings: list[float], episodes: int, trace_steps: int):
     def cells(params: Any, seed: int = 42):
-        acc, trace = jax.device_get(run(params, jax.random.PRNGKey(seed)))
+        acc, trace = jax.device_get(run(task.data, params, jax.random.PRNGKey(seed)))
         records = _cell_records(acc, dampings, episodes)
         return (records, {k: np.asarray(v) for k, v in trace.items()}) if trace_steps else records
 
@@ -124,9 +150,9 @@ def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes
 
 
 def rollout_cells(task: PullTask, policy: Policy, params: Any, dampings: list[float], episodes: int,
-                  seed: int = 42, controls: str = "actions") -> list[dict]:
+                  seed: int = 42, controls: str = "actions", key: Hashable | None = None) -> list[dict]:
     """One rollout of ``len(dampings) * episodes`` worlds under ``policy``; per-cell metrics (no mode)."""
-    return make_rollout(task, policy, dampings, episodes, controls)(params, seed)
+    return make_rollout(task, policy, dampings, episodes, controls, key=key)(params, seed)
 
 
 def _cell_records(acc: dict, dampings: list[float], episodes: int) -> list[dict]:
@@ -167,8 +193,9 @@ def evaluate(task: PullTask, controller: Controller, dampings: list[float], mode
     cells = []
     for m in modes:
         policy = controller.make_policy(m == "det")
+        key = None if controller.key is None else (controller.key, m)
         cells += [{**r, "mode": m} for r in rollout_cells(task, policy, controller.params, dampings, episodes, seed,
-                                                           controller.controls)]
+                                                           controller.controls, key)]
     noise = task.config.reset_noise
     return {"cells": cells, "robustness": robustness(cells, modes), "object_id": task.scene.obj.object_id,
             "method": controller.name, "backend": task.backend.name,

@@ -15,9 +15,9 @@ with contextlib.redirect_stdout(sys.stderr):  # mujoco.mjx prints "Failed to imp
     from mujoco import mjx
 
 from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, settled_reset, stack_states, take_state
-from dragmesh2_jax.scene import FORCE_SIZE, SENSORS, Scene
+from dragmesh2_jax.scene import SENSORS, Scene
 
-FORCE_SLICE = slice(3 * len(SENSORS), 3 * len(SENSORS) + FORCE_SIZE)  # the contact-load sensors in sensordata
+FORCE_SLICE = slice(3 * len(SENSORS), None)  # the contact-load sensors: the last ones in sensordata
 
 
 @struct.dataclass

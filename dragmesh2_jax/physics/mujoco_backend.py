@@ -28,7 +28,7 @@ from flax import struct
 from mujoco import rollout
 
 from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, settled_reset, stack_states, take_state
-from dragmesh2_jax.scene import FORCE_SIZE, SENSORS, Scene
+from dragmesh2_jax.scene import SENSORS, Scene
 
 
 @struct.dataclass
@@ -154,4 +154,4 @@ class MujocoBackend:
         s, n = ps.sensors, 3 * len(SENSORS)
         return Kinematics(hand_q=ps.qpos[L.hand_qpos], hand_qd=ps.qvel[L.hand_dof],
                           obj_q=ps.qpos[L.target_qpos], obj_qd=ps.qvel[L.target_dof],
-                          palm=s[0:3], handle_pos=s[3:6], handle_rot=s[6:12], force=s[n:n + FORCE_SIZE])
+                          palm=s[0:3], handle_pos=s[3:6], handle_rot=s[6:12], force=s[n:])

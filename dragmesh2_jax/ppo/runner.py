@@ -79,7 +79,7 @@ def robust_evaluator(trainer: Trainer, selection: RobustSelection):
 
     task = eval_task(trainer.task, noise=ResetNoise(seed=selection.seed))
     rollout = make_rollout(task, trainer.make_policy(deterministic=True), list(selection.dampings),
-                           selection.episodes)  # compiled once, run every ``selection.every`` epochs
+                           selection.episodes, key=(trainer.signature(), "det"))  # compiled once per structure
 
     def evaluate(ts: TrainState) -> dict:
         cells = rollout(trainer.policy_params(ts), seed=selection.seed)
@@ -185,9 +185,10 @@ def train_runs(trainer: Trainer, run_dirs: list[Path], seeds: list[int], object_
                 _board(boards[i], "train", row)
                 improved = row["reward"] > best[i]
                 robust_due = robust is not None and (e % selection.every == 0 or e == c.epochs)
-                if e % save_every == 0 or improved or robust_due:  # this run's state, only when it is needed
+                kept = e % save_every == 0 or e == c.epochs  # the last epoch too: a finished run can be extended
+                if kept or improved or robust_due:  # this run's state, only when it is needed
                     one = take_run(ts, i)
-                if e % save_every == 0:
+                if kept:
                     save_checkpoint(one, d / "checkpoints" / f"epoch_{e:04d}")
                 if improved:
                     best[i] = row["reward"]

@@ -200,7 +200,7 @@ class Trainer:
         """The trained policy of ``ts`` as the evaluator's :class:`Controller`."""
         from dragmesh2_jax.evaluation.evaluate import Controller
 
-        return Controller(self.method.name, self.make_policy, self.policy_params(ts))
+        return Controller(self.method.name, self.make_policy, self.policy_params(ts), key=self.signature())
 
     def init(self, seed: int | None = None) -> TrainState:
         """A new run's state (parameters, optimiser, worlds) from ``seed`` (default: the config's)."""

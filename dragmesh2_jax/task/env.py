@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL, active_dofs
+from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics.base import Backend, Kinematics, Start, WorldFields
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
@@ -135,20 +135,23 @@ def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
         raise DragMeshError("trajectory never moves its target joint (zero motion range)")
 
 
-def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None) -> list[Start]:
-    """The start states of the task: the expert grasp (drag-start frame), or ``noise.bank`` seeded
-    perturbations of it (truncated normal on the wrist pose and the active finger joints; the object joint
-    opened by a uniform fraction of the distance to q_done)."""
-    frame = traj.frames[traj.drag_start]
-    hand_q, obj_q = np.asarray(frame.hand_q, np.float64), float(frame.joint_positions[traj.target_index])
+def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start: Start | None = None) -> list[Start]:
+    """The start states of the task: ``start`` (default: the expert grasp, the trajectory's drag-start frame), or
+    ``noise.bank`` seeded perturbations of it (truncated normal on the wrist pose and, for the hand, the active
+    finger joints; the object joint opened by a uniform fraction of the distance to q_done)."""
+    if start is None:
+        frame = traj.frames[traj.drag_start]
+        start = frame.hand_q, frame.joint_positions[traj.target_index]
+    hand_q, obj_q = np.asarray(start[0], np.float64), float(start[1])
     if noise is None:
         return [(hand_q, obj_q)]
     rng = np.random.default_rng(noise.seed)
-    fingers = np.flatnonzero(active_dofs(scene.config.hand)[NUM_VIRTUAL:]) + NUM_VIRTUAL
+    hand = scene.config.effector == "hand"
+    fingers = np.flatnonzero(scene.config.active_dofs()[NUM_VIRTUAL:]) + NUM_VIRTUAL if hand else []
     trunc = lambda std, n: std * np.clip(rng.standard_normal(n), -2.0, 2.0)  # noqa: E731
     starts = []
     for _ in range(noise.bank):
-        dq = np.zeros(NUM_DOFS)
+        dq = np.zeros(len(hand_q))
         dq[:3], dq[3:NUM_VIRTUAL] = trunc(noise.wrist_pos, 3), trunc(noise.wrist_rot, 3)
         dq[fingers] = trunc(noise.fingers, len(fingers))
         opened = rng.uniform(0.0, noise.object_q) * (traj.q_done - traj.q_start)
@@ -174,10 +177,10 @@ def make_backend(scene: Scene, config: TaskConfig, starts: list[Start]) -> Backe
 class PullTask:
     """One object, one trajectory, one config. ``reset``/``step`` are pure per-world functions."""
 
-    def __init__(self, scene: Scene, traj: Trajectory, config: TaskConfig = TaskConfig()):
+    def __init__(self, scene: Scene, traj: Trajectory, config: TaskConfig = TaskConfig(), start: Start | None = None):
         check_trajectory_matches(scene, traj)
         self.scene, self.traj, self.config = scene, traj, config
-        starts = reset_starts(scene, traj, config.reset_noise)
+        starts = reset_starts(scene, traj, config.reset_noise, start)
         self.backend = make_backend(scene, config, starts)
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
         params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
@@ -187,8 +190,8 @@ class PullTask:
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
                              fields={f: jnp.asarray(getattr(scene.model, f)) for f in RANDOMIZED_FIELDS})
-        self.action_size = NUM_DOFS
-        self.active = jnp.asarray(active_dofs(scene.config.hand))
+        self.action_size = len(scene.ids.hand_qpos)  # 51 for the hand, 8 for the gripper
+        self.active = jnp.asarray(scene.config.active_dofs())
         self.substeps = self.backend.substeps
 
     @property
@@ -204,8 +207,8 @@ class PullTask:
     def signature(self) -> tuple:
         """What the compiled functions depend on besides ``data`` (and its shapes, and on MJX the model's static
         fields, geometry included): tasks with equal signatures share programs. The scene enters through the
-        model (data) but for the hand variant, which fixes the moving DoFs."""
-        return self.config, self.scene.config.hand, self.backend.signature()
+        model (data) but for the effector and the hand variant, which fix the moving DoFs."""
+        return self.config, self.scene.config.effector, self.scene.config.hand, self.backend.signature()
 
     @property
     def params(self) -> TaskParams:
@@ -283,7 +286,7 @@ class PullTask:
         k = self.kinematics(ps)
         ctrl = self.data.start_ctrl[start]
         e = (ctrl - k.hand_q).astype(jnp.float32)
-        token = self._token(e, jnp.zeros(NUM_DOFS, jnp.float32), k)
+        token = self._token(e, jnp.zeros(self.action_size, jnp.float32), k)
         history = jnp.zeros((c.history_len, token.shape[0]), jnp.float32).at[-1].set(token)
         d = jnp.linalg.norm(k.handle_pos - k.palm).astype(jnp.float32)
         K1 = c.aux_window + 1
@@ -351,7 +354,7 @@ class PullTask:
             terms["aram"], stall = aram_penalty(c.reward.aram, info["aram_lambda"], stall, d, a,
                                                 q - q_long[-1 - K], delta, p.revolute)
         if c.reward.reconfig is not None:
-            prev_a = state.obs.history[-1, NUM_DOFS:2 * NUM_DOFS]
+            prev_a = state.obs.history[-1, self.action_size:2 * self.action_size]
             terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, prev_a,
                                                          k.hand_qd, delta, K)
         reward = jnp.where(finite, sum(terms.values()), 0.0).astype(jnp.float32)

@@ -91,10 +91,19 @@ def _build_one(folder: Path, sample_id: str, out: Path, params: GeneratorParams)
 
 
 def build_dataset(objects: list[str | Path], out: str | Path, params: GeneratorParams = GeneratorParams(),
-                  progress: bool = True) -> DatasetResult:
-    """Generate a trajectory for every object folder; objects already recorded in ``out`` are skipped."""
+                  progress: bool = True, procedural: int = 0, seed: int = 0) -> DatasetResult:
+    """Generate a trajectory for every object folder, and with ``procedural`` that many procedural objects in the
+    paper's Table 1 category mix (written under ``out/objects``, seeds from ``seed``); objects already recorded in
+    ``out`` are skipped, so an interrupted build resumes."""
     out = Path(out)
-    folders = find_object_folders(list(objects))
+    objects = list(objects)
+    if procedural:
+        from dragmesh2_jax.assets.procedural import synthesize_table1
+
+        objects += synthesize_table1(procedural, seed, out / "objects")
+    if not objects:
+        raise DragMeshError("no objects given (object folders and/or a number of procedural objects)")
+    folders = find_object_folders(objects)
     ids = _sample_ids(folders)
     records = []
     todo = []
@@ -135,16 +144,20 @@ def write_summary(records: list[dict], out: Path) -> Path:
     by_cat: dict[str, list[dict]] = defaultdict(list)
     for r in records:
         by_cat[r["category"] or "(unreadable)"].append(r)
-    lines = ["# Trajectory dataset", "", "| Category | #Objects | #Traj. (passed) | #Failed | s / traj. |",
-             "|---|---|---|---|---|"]
+    from dragmesh2_jax.assets.procedural import PAPER_TABLE1
+
+    lines = ["# Trajectory dataset", "", "| Category | #Objects | #Traj. (passed) | #Failed | pass rate | s / traj. | "
+             "paper (Table 1) |", "|---|---|---|---|---|---|---|"]
     for cat in sorted(by_cat, key=lambda c: -len(by_cat[c])):
         rs = by_cat[cat]
         ok = sum(bool(r["enabled"]) for r in rs)
         secs = sum(float(r.get("seconds", 0)) for r in rs) / len(rs)
-        lines.append(f"| {cat} | {len(rs)} | {ok} | {len(rs) - ok} | {secs:.2f} |")
+        lines.append(f"| {cat} | {len(rs)} | {ok} | {len(rs) - ok} | {ok / len(rs):.2f} | {secs:.2f} | "
+                     f"{PAPER_TABLE1.get(cat, '-')} |")
     ok = sum(bool(r["enabled"]) for r in records)
     secs = sum(float(r.get("seconds", 0)) for r in records) / max(len(records), 1)
-    lines.append(f"| **Total** | {len(records)} | {ok} | {len(records) - ok} | {secs:.2f} |")
+    lines.append(f"| **Total** | {len(records)} | {ok} | {len(records) - ok} | {ok / max(len(records), 1):.2f} | "
+                 f"{secs:.2f} | {sum(PAPER_TABLE1.values())} |")
     fails = [r for r in records if not r["enabled"]]
     lines += ["", f"## Failures ({len(fails)})", ""]
     lines += [f"- `{r['sample_id']}` ({r['folder']}): {r['reason'] or 'failed the quality gate'}" for r in fails]

@@ -61,6 +61,9 @@ class GeneratorParams:
     min_open_fraction: float = 0.5  # the joint must follow at least this much of the planned drag
     max_penetration: float = 0.015  # m
     limit_tolerance: float = 0.02  # rad or m beyond the hand's joint limits
+    # the task's detachment rule (TaskConfig.d_detach): once the palm is this near the handle in the drag, it stays
+    # so until the joint passes q_done, so that tracking the trajectory from the task's reset is never detached
+    max_palm_distance: float = 0.10  # m
 
     def __post_init__(self):
         for k in ("approach_frames", "grasp_frames", "drag_frames", "release_frames", "substeps"):
@@ -195,7 +198,7 @@ def execute(scene: Scene, plan: Plan, params: GeneratorParams, damping_scale: fl
     mujoco.mj_forward(m, d)
     for _ in range(params.settle_frames * params.substeps):
         mujoco.mj_step(m, d)
-    frames, pen, limit_excess = [], 0.0, 0.0
+    frames, pen, limit_excess, palm_dist = [], 0.0, 0.0, []
     wrist = ids.wrist_body
     for phase, step, target in zip(plan.phases, plan.steps, plan.targets, strict=True):
         d.ctrl[ids.hand_actuators] = np.clip(target, lo, hi)
@@ -206,13 +209,14 @@ def execute(scene: Scene, plan: Plan, params: GeneratorParams, damping_scale: fl
             raise DragMeshError(f"{scene.obj.folder}: physics went non-finite while executing the plan")
         hq = d.qpos[ids.hand_qpos].copy()
         limit_excess = max(limit_excess, float(np.max(np.maximum(lo - hq, hq - hi))))
+        palm_dist.append(float(np.linalg.norm(d.site_xpos[ids.palm_site] - d.site_xpos[ids.handle_site])))
         w = d.xquat[wrist]
         frames.append(Frame(
             phase=phase, step=step, virtual_xyz=tuple(hq[:3]), wrist_rpy=tuple(hq[3:6]), finger_dofs=tuple(hq[6:]),
             wrist_pos=tuple(float(x) for x in d.xpos[wrist]), wrist_rot=(float(w[1]), float(w[2]), float(w[3]),
                                                                         float(w[0])),
             joint_positions=_object_joint_positions(scene, d), hand_target=tuple(float(x) for x in target)))
-    return frames, {"max_penetration_m": pen, "hand_limit_excess": max(limit_excess, 0.0)}
+    return frames, {"max_penetration_m": pen, "hand_limit_excess": max(limit_excess, 0.0), "palm_dist": palm_dist}
 
 
 def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorParams, extent: float) -> dict:
@@ -227,6 +231,11 @@ def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorPar
     reached = bool(traj.target_q[drag[0]: drag[-1] + 1].max() >= q_done) and opened
     within = stats["hand_limit_excess"] <= params.limit_tolerance
     shallow = stats["max_penetration_m"] <= params.max_penetration
+    until = next((i for i in drag if traj.target_q[i] >= q_done), drag[-1])
+    dist = np.asarray(stats["palm_dist"][drag[0]: until + 1])
+    near = np.flatnonzero(dist <= params.max_palm_distance)  # the task arms its detachment check from here
+    palm = float(dist[near[0]:].max()) if len(near) else float(dist.min())
+    held = len(near) > 0 and palm <= params.max_palm_distance
     reasons = []
     if not opened:
         reasons.append(f"contact opened the joint by {achieved:.4f} of the planned {extent:.4f}")
@@ -237,7 +246,11 @@ def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorPar
         reasons.append(f"hand left its joint limits by {stats['hand_limit_excess']:.4f}")
     if not shallow:
         reasons.append(f"hand-object penetration {stats['max_penetration_m']:.4f} m")
-    return {"passed": bool(reached and within and shallow), "opened_past_q_done": bool(reached),
+    if not held:
+        reasons.append(f"the palm left the handle ({palm:.3f} m > {params.max_palm_distance} m) before q_done: "
+                       "tracking would count it as detached")
+    return {"passed": bool(reached and within and shallow and held), "opened_past_q_done": bool(reached),
+            "max_palm_distance_m": round(palm, 4),
             "achieved_opening": round(achieved, 6), "planned_opening": round(float(extent), 6),
             "q_done": q_done, "max_penetration_m": round(stats["max_penetration_m"], 6),
             "hand_within_limits": bool(within), "reasons": reasons}
@@ -262,7 +275,8 @@ def generate(obj: GAPartNetObject, params: GeneratorParams = GeneratorParams(), 
     for k, placement in enumerate(params.placements):
         frames, stats = execute(scene, make_plan(scene, params, placement), params)
         q = quality(scene, frames, stats, params, extent)
-        attempts.append({"placement": k, **{x: q[x] for x in ("passed", "achieved_opening", "max_penetration_m")}})
+        attempts.append({"placement": k, **{x: q[x] for x in ("passed", "achieved_opening", "max_penetration_m",
+                                                                 "max_palm_distance_m")}})
         if best is None or q["passed"] or q["achieved_opening"] > best[1]["achieved_opening"]:
             best = (frames, q, k, placement)
         if q["passed"]:

@@ -38,3 +38,28 @@ def test_cli_trajectory_and_dataset(tmp_path, capsys):
     assert dragmesh2(["trajectory", "--object", str(obj), "--out", str(tmp_path / "t.json")]) == 0
     assert "PASSED" in capsys.readouterr().out
     assert dragmesh2(["dataset", "build", "--objects", str(tmp_path / "nope"), "--out", str(tmp_path / "d")]) == 2
+
+
+def test_the_paper_category_mix():
+    """277 procedural objects are the paper's Table 1 counts per GAPartNet category."""
+    mix = procedural.table1_mix(277)
+    by_gapartnet = {}
+    for cat, k in mix.items():
+        g = procedural.CATEGORIES[cat][0]
+        by_gapartnet[g] = by_gapartnet.get(g, 0) + k
+    assert by_gapartnet == procedural.PAPER_TABLE1
+    small = procedural.table1_mix(50)
+    assert sum(small.values()) == 50 and small["drawer_cabinet"] + small["door_cabinet"] == 46  # 256/277 of 50
+
+
+def test_cli_dataset_of_procedural_objects_resumes(tmp_path, capsys):
+    out = tmp_path / "d"
+    assert dragmesh2(["dataset", "build", "--procedural", "3", "--out", str(out), "--quiet"]) == 0
+    assert "3 of 3 passed" in capsys.readouterr().out
+    summary = (out / "summary.md").read_text()
+    assert "| StorageFurniture | 3 | 3 | 0 | 1.00 |" in summary and "| 256 |" in summary
+    records = sorted((out / "records").iterdir())
+    mtimes = [p.stat().st_mtime_ns for p in records]
+    assert dragmesh2(["dataset", "build", "--procedural", "3", "--out", str(out), "--quiet"]) == 0  # resumed
+    assert [p.stat().st_mtime_ns for p in sorted((out / "records").iterdir())] == mtimes
+    assert dragmesh2(["dataset", "build", "--procedural", "-1", "--out", str(out)]) == 2
