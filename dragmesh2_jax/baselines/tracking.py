@@ -38,9 +38,8 @@ def tracking_controller(task: PullTask) -> Controller:
                       key=TRACKING)
 
 
-def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 0,
-          trace_steps: int = 0) -> list[dict] | tuple[list[dict], dict]:
+def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 0) -> list[dict]:
     """The evaluator's cells of the tracking baseline on ``task`` (its own starts: exact unless the config
-    perturbs them) at each damping multiplier; with ``trace_steps``, also the first steps' object and hand q."""
+    perturbs them) at each damping multiplier."""
     c = tracking_controller(task)
-    return make_rollout(task, replay, dampings, episodes, c.controls, trace_steps, key=c.key)(c.params, seed)
+    return make_rollout(task, replay, dampings, episodes, c.controls, key=c.key)(c.params, seed)

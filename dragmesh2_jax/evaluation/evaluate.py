@@ -68,31 +68,29 @@ class Controller:
 
 
 def make_rollout(task: PullTask, policy: Policy, dampings: list[float], episodes: int, controls: str = "actions",
-                 trace_steps: int = 0, key: Hashable | None = None):
+                 key: Hashable | None = None):
     """``(params, seed) -> per-cell metrics``: one jitted rollout of ``len(dampings) * episodes`` worlds under
     ``policy``, compiled once and reusable (the in-training robustness check calls it every few epochs). The
     object's data is an argument of the program, so with ``key`` (what ``policy`` depends on besides its params,
     e.g. ``Trainer.signature()``) every object, checkpoint and seed of the same structure shares one compiled
-    rollout. With ``trace_steps``, it returns ``(cells, traces)``: the object q (T, n) and hand q (T, n, 51) of
-    the first ``trace_steps`` control steps (backend parity checks)."""
-    cache_key = None if key is None else (key, task.signature(), tuple(dampings), episodes, controls, trace_steps)
+    rollout."""
+    cache_key = None if key is None else (key, task.signature(), tuple(dampings), episodes, controls)
     if cache_key is None or cache_key not in _ROLLOUTS:
-        run = _compile_rollout(task, policy, dampings, episodes, controls, trace_steps)
+        run = _compile_rollout(task, policy, dampings, episodes, controls)
         if cache_key is None:
-            return _cells(run, task, dampings, episodes, trace_steps)
+            return _cells(run, task, dampings, episodes)
         _ROLLOUTS[cache_key] = run
         while len(_ROLLOUTS) > ROLLOUT_CACHE_SIZE:
             _ROLLOUTS.popitem(last=False)
     _ROLLOUTS.move_to_end(cache_key)
-    return _cells(_ROLLOUTS[cache_key], task, dampings, episodes, trace_steps)
+    return _cells(_ROLLOUTS[cache_key], task, dampings, episodes)
 
 
 ROLLOUT_CACHE_SIZE = 16  # compiled evaluation rollouts kept
 _ROLLOUTS: collections.OrderedDict[tuple, Any] = collections.OrderedDict()
 
 
-def _compile_rollout(template: PullTask, policy: Policy, dampings: list[float], episodes: int, controls: str,
-                     trace_steps: int):
+def _compile_rollout(template: PullTask, policy: Policy, dampings: list[float], episodes: int, controls: str):
     n = len(dampings) * episodes
     scales = jnp.asarray(np.repeat(dampings, episodes), jnp.float32)
     T = template.config.episode_length
@@ -106,10 +104,9 @@ def _compile_rollout(template: PullTask, policy: Policy, dampings: list[float], 
         state = reset(jax.random.split(k_env, n), scales)
         zeros = jnp.zeros(n)
         acc0 = {k: zeros for k in ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret")}
-        trace0 = {"q": jnp.zeros((trace_steps, n)), "hand_q": jnp.zeros((trace_steps, n, task.action_size))}
 
         def body(carry):
-            t, state, live, acc, trace, key = carry
+            t, state, live, acc, key = carry
             key, k = jax.random.split(key)
             u = policy(params, state.obs, k)
             state = step(state, u if controls == "targets" else jnp.clip(u, -1.0, 1.0))
@@ -122,31 +119,52 @@ def _compile_rollout(template: PullTask, policy: Policy, dampings: list[float], 
                     ("success", "success"), ("detach", "detach"), ("progress", "progress"),
                     ("ret", "episode_return"))},
             }
-            if trace_steps:
-                i = jnp.minimum(t, trace_steps - 1)
-                keep = t < trace_steps
-                trace = {"q": trace["q"].at[i].set(jnp.where(keep, m["q"], trace["q"][i])),
-                         "hand_q": trace["hand_q"].at[i].set(jnp.where(keep, state.obs.state[:, :task.action_size],
-                                                                         trace["hand_q"][i]))}
-            return t + 1, state, live & ~state.done, acc, trace, key
+            return t + 1, state, live & ~state.done, acc, key
 
-        def more(c):
-            return (c[0] < T) & (c[2].any() | (c[0] < trace_steps))
-
-        init = (jnp.int32(0), state, jnp.ones(n, bool), acc0, trace0, k_act)
-        _, _, _, acc, trace, _ = jax.lax.while_loop(more, body, init)
-        return acc, trace
+        init = (jnp.int32(0), state, jnp.ones(n, bool), acc0, k_act)
+        _, _, _, acc, _ = jax.lax.while_loop(lambda c: (c[0] < T) & c[2].any(), body, init)
+        return acc
 
     return run
 
 
-def _cells(run, task: PullTask, dampings: list[float], episodes: int, trace_steps: int):
-    def cells(params: Any, seed: int = 42):
-        acc, trace = jax.device_get(run(task.data, params, jax.random.PRNGKey(seed)))
-        records = _cell_records(acc, dampings, episodes)
-        return (records, {k: np.asarray(v) for k, v in trace.items()}) if trace_steps else records
+def _cells(run, task: PullTask, dampings: list[float], episodes: int):
+    def cells(params: Any, seed: int = 42) -> list[dict]:
+        return _cell_records(jax.device_get(run(task.data, params, jax.random.PRNGKey(seed))), dampings, episodes)
 
     return cells
+
+
+def trace_rollout(task: PullTask, controller: Controller, dampings: list[float], steps: int, seed: int = 0) -> dict:
+    """A fixed-length rollout, one world per damping, of ``controller``'s deterministic policy (backend parity
+    checks): per world, whether it succeeded before its first episode ended (``success``), and each step's object
+    q (``q``: steps x n) and effector q (``hand_q``: steps x n x DoFs)."""
+    policy = controller.make_policy(True)
+    targets = controller.controls == "targets"
+    step = jax.vmap(task.step_target if targets else task.step)
+    n = len(dampings)
+
+    @jax.jit
+    def run(params, keys, scales, key):
+        state = jax.vmap(task.reset)(keys, scales)
+
+        def body(carry, _):
+            state, finished, success, key = carry
+            key, k = jax.random.split(key)
+            u = policy(params, state.obs, k)
+            state = step(state, u if targets else jnp.clip(u, -1.0, 1.0))
+            success = success | (~finished & (state.metrics["success"] > 0))
+            return (state, finished | state.done, success, key), (state.metrics["q"],
+                                                                   state.obs.state[:, :task.action_size])
+
+        init = (state, jnp.zeros(n, bool), jnp.zeros(n, bool), key)
+        (_, _, success, _), (q, hand_q) = jax.lax.scan(body, init, None, length=steps)
+        return success, q, hand_q
+
+    k_env, k_act = jax.random.split(jax.random.PRNGKey(seed))
+    success, q, hand_q = jax.device_get(run(controller.params, jax.random.split(k_env, n),
+                                            jnp.asarray(dampings, jnp.float32), k_act))
+    return {"success": np.asarray(success), "q": np.asarray(q), "hand_q": np.asarray(hand_q)}
 
 
 def rollout_cells(task: PullTask, policy: Policy, params: Any, dampings: list[float], episodes: int,
