@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dragmesh2_jax.assets.hand import NUM_VIRTUAL, DriveGains, HandConfig
+from dragmesh2_jax.assets.hand import NUM_VIRTUAL, DriveGains, HandConfig, add_virtual_joints
 
 NAME = "PJ"
 FINGERS = ("left", "right")  # +x and -x of the wrist frame
@@ -77,12 +77,7 @@ def build_gripper_mjcf(config: GripperConfig = GripperConfig()) -> tuple[ET.Elem
             "solref": f"{config.contact_timeconst} 1", "solimp": "0.95 0.99 0.001", "rgba": "0.3 0.3 0.35 1",
             "group": "1"}
     wrist = ET.Element("body", name=wrist_body_name(), pos="0 0 0", gravcomp="1")
-    for i in range(3):
-        ET.SubElement(wrist, "joint", name=names[i], type="slide", axis=_fmt(np.eye(3)[i]),
-                      armature=f"{config.virtual.armature}", range=_fmt(ranges[i]), limited="true")
-    for i in range(3):
-        ET.SubElement(wrist, "joint", name=names[3 + i], type="hinge", axis=_fmt(np.eye(3)[i]),
-                      armature=f"{config.wrist.armature}", range=_fmt(ranges[3 + i]), limited="true")
+    add_virtual_joints(wrist, names, ranges, config.virtual, config.wrist)
     ET.SubElement(wrist, "geom", name=f"{NAME}_palm_geom", type="box", pos=_fmt([0, 0, -PALM_HALF[2]]),
                   size=_fmt(PALM_HALF), mass=f"{PALM_MASS}", **geom)
     ET.SubElement(wrist, "site", name=palm_site_name(), pos="0 0 0", size="0.006", rgba="1 0 0 1", group="3")

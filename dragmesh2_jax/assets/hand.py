@@ -201,6 +201,17 @@ def _fmt(v) -> str:
     return " ".join(f"{float(x):.6g}" for x in v)
 
 
+def add_virtual_joints(wrist: ET.Element, names, ranges: np.ndarray, virtual: DriveGains, rotation: DriveGains) -> None:
+    """The floating wrist's six DoFs on ``wrist``: world-frame slides x, y, z, then hinges giving Rx Ry Rz (read by
+    ``matrix_from_wrist_euler``). Shared by the hand and the parallel-jaw gripper."""
+    for i in range(3):
+        ET.SubElement(wrist, "joint", name=names[i], type="slide", axis=_fmt(np.eye(3)[i]),
+                      armature=f"{virtual.armature}", range=_fmt(ranges[i]), limited="true")
+    for i in range(3):
+        ET.SubElement(wrist, "joint", name=names[3 + i], type="hinge", axis=_fmt(np.eye(3)[i]),
+                      armature=f"{rotation.armature}", range=_fmt(ranges[3 + i]), limited="true")
+
+
 def build_hand_mjcf(config: HandConfig = HandConfig()) -> tuple[ET.Element, ET.Element]:
     """The hand as MJCF: a ``<body>`` to place under ``<worldbody>`` and an ``<actuator>`` block.
 
@@ -217,12 +228,7 @@ def build_hand_mjcf(config: HandConfig = HandConfig()) -> tuple[ET.Element, ET.E
 
     wrist = ET.Element("body", name=wrist_body_name(side), pos="0 0 0", gravcomp="1")
     # The six virtual DoFs are world-frame motions: never mirrored, so wrist_rpy means the same for both hands.
-    for i in range(3):
-        ET.SubElement(wrist, "joint", name=names[i], type="slide", axis=_fmt(np.eye(3)[i]),
-                      armature=f"{config.virtual.armature}", range=_fmt(ranges[i]), limited="true")
-    for i in range(3):
-        ET.SubElement(wrist, "joint", name=names[3 + i], type="hinge", axis=_fmt(np.eye(3)[i]),
-                      armature=f"{config.wrist.armature}", range=_fmt(ranges[3 + i]), limited="true")
+    add_virtual_joints(wrist, names, ranges, config.virtual, config.wrist)
     palm_pos = _mirror(PALM_BOX_POS, side)
     ET.SubElement(wrist, "geom", name=f"{p}_palm", type="box", pos=_fmt(palm_pos), size=_fmt(PALM_BOX_HALF),
                   mass=f"{PALM_MASS}", **geom_common)

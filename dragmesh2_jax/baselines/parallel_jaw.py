@@ -21,8 +21,9 @@ import numpy as np
 
 from dragmesh2_jax.assets import gripper
 from dragmesh2_jax.assets.gapartnet import axis_angle_matrix, opening_direction
+from dragmesh2_jax.baselines.tracking import replay
 from dragmesh2_jax.evaluation.evaluate import Controller
-from dragmesh2_jax.task.env import Obs, PullTask
+from dragmesh2_jax.task.env import PullTask
 
 PARALLEL_JAW = "parallel_jaw"
 
@@ -80,11 +81,6 @@ def primitive_plan(scene, steps: int, params: PrimitiveParams = PrimitiveParams(
         rpy = continuous_euler(R, rpy)
         targets.append(np.concatenate([palm, rpy, (1 - c) * opened + c * closed]))
     return np.concatenate([start, continuous_euler(R_w, None), opened]), np.asarray(targets, np.float32)
-
-
-def replay(targets: jnp.ndarray, obs: Obs, key) -> jnp.ndarray:
-    """The PD targets of the episode's current step (the last one held)."""
-    return targets[jnp.minimum(obs.step, targets.shape[0] - 1)]
 
 
 def parallel_jaw(task: PullTask, params: PrimitiveParams = PrimitiveParams()) -> tuple[PullTask, Controller]:
