@@ -220,7 +220,7 @@ def cmd_reproduce(args) -> int:
     seeds = [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]
     config = ReproduceConfig(objects=tuple(args.objects or [str(default_object())]), seeds=tuple(seeds),
                              epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend)
-    for path in reproduce(args.tables, config, args.out, progress=not args.quiet):
+    for path in reproduce(args.tables, config, args.out, progress=not args.quiet, run=not args.tables_only):
         print(path.read_text())
         _err(f"table: {path}")
     return 0
@@ -449,6 +449,8 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--out", default="out/reproduce")
     prp.add_argument("--backend", default="auto")
     prp.add_argument("--quiet", action="store_true")
+    prp.add_argument("--tables-only", action="store_true", help="run nothing: write the tables from the "
+                                                               "evaluations already done (partial ones say so)")
     prp.set_defaults(func=cmd_reproduce)
 
     pd = sub.add_parser("demo", help="the main job: trajectory, PICA training, evaluation, report")

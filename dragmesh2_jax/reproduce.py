@@ -400,7 +400,8 @@ def figure2(results: list[dict], labels: list[str], objects: list[str], path: Pa
         ax.set_xlabel("damping multiplier")
         ax.set_ylim(0, 1.05)
     axes[0].set_ylabel(f"success (mean over {len(names)} objects)")
-    axes[1].legend(fontsize=7, ncol=2)
+    if labels:
+        axes[1].legend(fontsize=7, ncol=2)
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp, dpi=110)
@@ -414,6 +415,10 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
     budget = (f"{len(c.seeds)} seed(s) {', '.join(map(str, c.seeds))}; base {c.epochs} epochs; {c.episodes} "
               f"episodes per cell from perturbed starts; backend {c.backend}")
     lines = [f"# reproduce {table}", "", budget, ""]
+    missing = _missing(table, c, results)
+    if missing:
+        lines += [f"**Partial**: evaluations not done yet (their cells show fewer seeds or '-'): "
+                  f"{'; '.join(missing)}.", ""]
     if table in ("main", "ablation"):
         labels = list(dict.fromkeys(r["label"] for r in results))
         lines += ["Cells: det / stoch success, mean±SE over seeds; (paper det/stoch) where the paper has the object.",
@@ -425,6 +430,20 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
                   "", diagnostic_table(results, rows, columns)]
     atomic_write_json(out / f"{table}.json", {"table": table, "config": dataclasses.asdict(c), "results": results})
     return atomic_write_text(out / f"{table}.md", "\n".join(lines) + "\n")
+
+
+def _labels(table: str, c: ReproduceConfig) -> set[str]:
+    return {s.label for s in plan(table, c) if isinstance(s, Eval)}
+
+
+def _missing(table: str, c: ReproduceConfig, results: list[dict]) -> list[str]:
+    """The plan's evaluations of ``table`` without a result, as ``object/label`` with the seeds they lack."""
+    have = {(r["object"], r["label"], r["seed"]) for r in results}
+    lacking: dict[str, list[str]] = {}
+    for s in plan(table, c):
+        if isinstance(s, Eval) and (Path(s.object).name, s.label, s.seed) not in have:
+            lacking.setdefault(f"{Path(s.object).name}/{s.label}", []).append(str(s.seed))
+    return [f"{k} (seed {','.join(v)})" for k, v in lacking.items()]
 
 
 def _diagnostic_layout(table: str, c: ReproduceConfig):
@@ -443,18 +462,18 @@ def _diagnostic_layout(table: str, c: ReproduceConfig):
 
 
 def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: bool = True,
-              on_step: Callable | None = None) -> list[Path]:
-    """Plan, run (resuming) and write each table; returns the markdown files."""
+              on_step: Callable | None = None, run: bool = True) -> list[Path]:
+    """Plan, run (resuming) and write each table; returns the markdown files. ``run=False`` runs nothing and
+    writes the tables from the evaluations already done (a partial table says what it lacks)."""
     out = Path(out)
     tables = list(TABLES) if tables == ["all"] else tables
     steps = [s for t in tables for s in plan(t, c)]
     steps = list(dict.fromkeys(steps))  # tables share runs (PICA in main and ablation; the base policy)
     t0 = time.time()
-    results = execute(steps, c, out, progress, on_step)
-    paths = []
-    for t in tables:
-        labels = {s.label for s in plan(t, c) if isinstance(s, Eval)}
-        paths.append(write_table(t, c, [r for r in results if r["label"] in labels], out))
-    atomic_write_json(out / "reproduce_run.json", {"tables": tables, "seconds": round(time.time() - t0, 1),
-                                                   "config": dataclasses.asdict(c)})
+    results = execute(steps, c, out, progress, on_step) if run else \
+        [json.loads(s.path(out).read_text()) for s in steps if isinstance(s, Eval) and s.path(out).is_file()]
+    paths = [write_table(t, c, [r for r in results if r["label"] in _labels(t, c)], out) for t in tables]
+    if run:
+        atomic_write_json(out / "reproduce_run.json", {"tables": tables, "seconds": round(time.time() - t0, 1),
+                                                       "config": dataclasses.asdict(c)})
     return paths

@@ -67,3 +67,20 @@ def test_the_command(tmp_path, capsys):
     assert dragmesh2(["reproduce", "main", "--objects", str(default_object()), "--seeds", "0", "--epochs", "0",
                       "--out", str(tmp_path)]) == 2
     assert capsys.readouterr().err.startswith("error: ")
+
+
+def test_tables_only_writes_what_is_done_and_names_what_is_not(tmp_path):
+    c = ReproduceConfig(objects=("a", "b"), seeds=(0, 1), epochs=2)
+    for step in plan("main", c):
+        if isinstance(step, Eval) and step.object == "a":
+            rate = 1.0 if step.seed == 0 else 0.5
+            cells = [{"damping": d, "mode": m, "success_rate": rate} for d in (1.0, 2.0, 4.0) for m in ("det", "stoch")]
+            step.path(tmp_path).parent.mkdir(parents=True, exist_ok=True)
+            step.path(tmp_path).write_text(json.dumps({"label": step.label, "seed": step.seed, "object": "a",
+                                                       "cells": cells}))
+    [path] = reproduce(["main"], c, tmp_path, progress=False, run=False)
+    table = path.read_text()
+    assert "| pica | x1 | 0.75±0.25 / 0.75±0.25" in table  # seeds 0 and 1 of object a
+    assert "| - |" in table  # object b has nothing yet
+    assert "b/pica (seed 0,1)" in table and "a/pica" not in table.split("**Partial**")[1].split("\n")[0]
+    assert not list(tmp_path.glob("runs/*/*/checkpoints"))  # nothing trained
