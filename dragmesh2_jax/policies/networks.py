@@ -61,12 +61,13 @@ class TemporalEncoder(nn.Module):
             cell = nn.GRUCell(features=self.dim)
             x = nn.RNN(cell)(x.reshape(-1, *x.shape[-2:])).reshape(x.shape)
         elif self.kind == "transformer":
+            # one causal pre-LN block; only the last token's output is used, and under the causal mask it
+            # attends to every token: so only its query, residual and MLP are computed
             L = x.shape[-2]
             x = x + self.param("pos", nn.initializers.normal(0.02), (L, self.dim))
-            mask = nn.make_causal_mask(jnp.ones(x.shape[:-1]))
             h = nn.LayerNorm()(x)
-            x = x + nn.MultiHeadDotProductAttention(num_heads=self.heads)(h, h, mask=mask)
-            x = x + nn.Dense(self.dim, bias_init=_zeros)(MLP((2 * self.dim,))(nn.LayerNorm()(x)))
+            last = x[..., -1:, :] + nn.MultiHeadDotProductAttention(num_heads=self.heads)(h[..., -1:, :], h)
+            x = last + nn.Dense(self.dim, bias_init=_zeros)(MLP((2 * self.dim,))(nn.LayerNorm()(last)))
         else:
             raise ValueError(f"unknown temporal encoder {self.kind!r}")
         return nn.LayerNorm(name="hist_norm")(x[..., -1, :])  # the last token's output

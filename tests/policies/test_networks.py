@@ -149,3 +149,27 @@ def test_aux_targets_are_not_a_network_input():
     out2 = Trainer.apply(trainer, params, None, obs.replace(aux=jnp.full((2, 4), 1e6)))
     np.testing.assert_array_equal(out1[0], out2[0])
     np.testing.assert_array_equal(out1[2], out2[2])
+
+
+def test_transformer_computes_only_the_last_token_of_a_causal_block():
+    """One pre-LN causal block whose last token's output is z_hist: computing that token alone (its query
+    against every key) equals the full block's last row, and every token of the window reaches it."""
+    import flax.linen as nn
+
+    from dragmesh2_jax.policies.networks import MLP, TemporalEncoder
+
+    class FullBlock(nn.Module):
+        @nn.compact
+        def __call__(self, history):
+            x = nn.Dense(128, name="token_proj")(history)
+            x = x + self.param("pos", nn.initializers.normal(0.02), (x.shape[-2], 128))
+            h = nn.LayerNorm()(x)
+            x = x + nn.MultiHeadDotProductAttention(num_heads=4)(h, h, mask=nn.make_causal_mask(x[..., 0]))
+            x = x + nn.Dense(128)(MLP((256,))(nn.LayerNorm()(x)))
+            return nn.LayerNorm(name="hist_norm")(x[..., -1, :])
+
+    H = jax.random.normal(jax.random.key(1), (3, 16, 102))
+    enc = TemporalEncoder(kind="transformer")
+    params = enc.init(jax.random.key(0), H)
+    np.testing.assert_allclose(enc.apply(params, H), FullBlock().apply(params, H), atol=1e-5)
+    assert not np.allclose(enc.apply(params, H.at[:, 0].add(1.0)), enc.apply(params, H))
