@@ -400,11 +400,11 @@ def figure2(results: list[dict], labels: list[str], objects: list[str], path: Pa
         ax.set_xlabel("damping multiplier")
         ax.set_ylim(0, 1.05)
     axes[0].set_ylabel(f"success (mean over {len(names)} objects)")
-    if labels:
-        axes[1].legend(fontsize=7, ncol=2)
+    if labels:  # beside the panels, where it hides no bar
+        axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
     plt.close(fig)
     tmp.replace(path)
     return path
