@@ -263,7 +263,7 @@ def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
         trainer, ts, _, ck = load_run(find_checkpoint(folder, ev.checkpoint) or folder, c.backend)
         result = evaluate(eval_task(trainer.task), trainer.controller(ts), list(DAMPINGS), list(MODES), c.episodes,
                           seed=c.eval_seed)
-        result.update(checkpoint=str(ck), epoch=int(ts.epoch))
+        result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=ev.run.epochs)
     result.update(label=ev.label, seed=ev.seed, object=Path(ev.object).name)
     atomic_write_json(ev.path(out), result)
     return result
@@ -288,7 +288,7 @@ def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bo
                   TimeRemainingColumn(), disable=not progress) as bar:
         task = bar.add_task("reproduce", total=max(total, 1.0))
         for step in steps:
-            if isinstance(step, Eval) and step.path(out).is_file():
+            if isinstance(step, Eval) and _done(step, out):
                 results.append(json.loads(step.path(out).read_text()))
                 continue
             if step not in todo:
@@ -307,8 +307,12 @@ def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bo
 
 
 def _done(step: Run | Eval, out: Path) -> bool:
+    """A run is done at its epochs; an evaluation when written, of a run trained to the plan's epochs (a
+    run extended to a larger budget is evaluated again)."""
     if isinstance(step, Eval):
-        return step.path(out).is_file()
+        path = step.path(out)
+        return path.is_file() and (step.run is None or
+                                   json.loads(path.read_text()).get("run_epochs") == step.run.epochs)
     return trained_epochs(step.folder(out)) >= step.epochs
 
 
@@ -471,7 +475,7 @@ def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: 
     steps = list(dict.fromkeys(steps))  # tables share runs (PICA in main and ablation; the base policy)
     t0 = time.time()
     results = execute(steps, c, out, progress, on_step) if run else \
-        [json.loads(s.path(out).read_text()) for s in steps if isinstance(s, Eval) and s.path(out).is_file()]
+        [json.loads(s.path(out).read_text()) for s in steps if isinstance(s, Eval) and _done(s, out)]
     paths = [write_table(t, c, [r for r in results if r["label"] in _labels(t, c)], out) for t in tables]
     if run:
         atomic_write_json(out / "reproduce_run.json", {"tables": tables, "seconds": round(time.time() - t0, 1),

@@ -1,6 +1,7 @@
 """``dragmesh2 reproduce``: every table's plan runs on a tiny preset, writes the paper's layout, and an
 interrupted reproduction resumes without redoing finished runs."""
 
+import dataclasses
 import json
 
 import pytest
@@ -77,10 +78,15 @@ def test_tables_only_writes_what_is_done_and_names_what_is_not(tmp_path):
             cells = [{"damping": d, "mode": m, "success_rate": rate} for d in (1.0, 2.0, 4.0) for m in ("det", "stoch")]
             step.path(tmp_path).parent.mkdir(parents=True, exist_ok=True)
             step.path(tmp_path).write_text(json.dumps({"label": step.label, "seed": step.seed, "object": "a",
-                                                       "cells": cells}))
+                                                       "cells": cells, "run_epochs": 2}))
     [path] = reproduce(["main"], c, tmp_path, progress=False, run=False)
     table = path.read_text()
     assert "| pica | x1 | 0.75±0.25 / 0.75±0.25" in table  # seeds 0 and 1 of object a
     assert "| - |" in table  # object b has nothing yet
     assert "b/pica (seed 0,1)" in table and "a/pica" not in table.split("**Partial**")[1].split("\n")[0]
     assert not list(tmp_path.glob("runs/*/*/checkpoints"))  # nothing trained
+
+    # the same runs planned at a larger budget: their evaluations are stale, the controllers' are not
+    [path] = reproduce(["main"], dataclasses.replace(c, epochs=3), tmp_path, progress=False, run=False)
+    table = path.read_text()
+    assert "| tracking | x1 | 1.00" in table and "a/pica (seed 0,1)" in table
