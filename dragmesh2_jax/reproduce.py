@@ -476,7 +476,8 @@ def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: 
     t0 = time.time()
     results = execute(steps, c, out, progress, on_step) if run else \
         [json.loads(s.path(out).read_text()) for s in steps if isinstance(s, Eval) and _done(s, out)]
-    paths = [write_table(t, c, [r for r in results if r["label"] in _labels(t, c)], out) for t in tables]
+    paths = [write_table(t, c, [r for r in results if r["label"] in labels], out)
+             for t in tables for labels in [_labels(t, c)]]  # one plan per table, not one per result
     if run:
         atomic_write_json(out / "reproduce_run.json", {"tables": tables, "seconds": round(time.time() - t0, 1),
                                                        "config": dataclasses.asdict(c)})
