@@ -7,7 +7,7 @@ interrupted reproduction resumes without redoing finished runs (an interrupted r
 checkpoint). One progress bar covers the whole plan, with an estimate of the time left.
 
 Tables (the paper's numbering):
-  main           Table 2: controllers (tracking; the parallel-jaw primitive once built) and the learned methods.
+  main           Table 2: controllers (tracking, the parallel-jaw primitive) and the learned methods.
   ablation       Table 3: PICA without the physical signals (gla_only), without GLA (pica_flat), PICA.
   train-length   Table 4: the base policy evaluated at 150/200/300/500 epochs (one diagnostic object).
   ood            Table 5: x4 diagnostics of the base policy at those lengths and of its ARAM/Reconfig/Both
@@ -18,6 +18,7 @@ Tables (the paper's numbering):
 Epoch counts are the paper's at ``epochs=150`` and scale with ``epochs`` (a tiny preset keeps the shape).
 Main and ablation cells evaluate each run's ``best_robust`` checkpoint (selected by robustness during
 training); the appendix tables evaluate the checkpoint at the named epoch. The diagnostic object is the first.
+``methods`` (``--methods``) replaces the rows of main and ablation: a subset of the paper's, or presets beyond it.
 
 Outputs: ``<table>.md`` (the paper's layout: det/stoch per object as mean ± standard error over seeds, Avg, and
 the paper's own numbers for the objects it shares with ours), ``<table>.json`` (every seed's cells) and, for
@@ -28,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -86,10 +88,19 @@ class ReproduceConfig:
     episodes: int = 20  # paper §4
     backend: str = "auto"
     eval_seed: int = 42
+    methods: tuple[str, ...] | None = None  # the rows of the main and ablation tables; None: the paper's
 
     def __post_init__(self):
+        from dragmesh2_jax.policies.methods import METHODS
+        from dragmesh2_jax.runs import baseline_controllers
+
         if not self.objects:
             raise DragMeshError("reproduce needs at least one object")
+        known = [*baseline_controllers(), *METHODS]
+        unknown = [m for m in self.methods or () if m not in known]
+        if self.methods is not None and (not self.methods or unknown):
+            raise DragMeshError(f"unknown method(s) {', '.join(unknown) or '(none given)'} "
+                                f"(choose from {', '.join(known)})")
         if not self.seeds or len(set(self.seeds)) < len(self.seeds):
             raise DragMeshError(f"reproduce needs distinct seeds, got {self.seeds}")
         if self.epochs < 1 or self.episodes < 1 or (self.num_envs is not None and self.num_envs < 1):
@@ -155,9 +166,9 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
     if table in ("main", "ablation"):
         from dragmesh2_jax.runs import baseline_controllers
 
-        controllers = [n for n in ("tracking", "parallel_jaw") if n in baseline_controllers()] if table == "main" \
-            else []
-        methods = MAIN_METHODS if table == "main" else ABLATION_METHODS
+        rows = c.methods or ((*baseline_controllers(), *MAIN_METHODS) if table == "main" else ABLATION_METHODS)
+        controllers = [n for n in rows if n in baseline_controllers()]
+        methods = [n for n in rows if n not in controllers]
         for obj in c.objects:
             steps += [Eval(obj, controller=n) for n in controllers]
             for m in methods:
@@ -224,7 +235,10 @@ def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
     save_every = max(1, c.scaled(FINETUNE_EPOCHS) // 2)
     # main/ablation evaluate a base run's best_robust checkpoint; the appendix tables evaluate named epochs
     selection = RobustSelection() if run.parent is None else RobustSelection(every=0)
-    if latest_checkpoint(folder) is not None or find_checkpoint(folder, "final") is not None:
+    resumable = latest_checkpoint(folder) is not None or find_checkpoint(folder, "final") is not None
+    if not resumable and folder.exists():
+        shutil.rmtree(folder)  # stopped before its first checkpoint: nothing to resume from, so it starts again
+    if resumable:
         trainer = trainer_from_record(folder, c.backend, epochs=run.epochs)  # the next stage, or an interrupted one
         train(trainer, folder, _record_object(folder), resume=True, save_every=save_every, progress=False,
               selection=selection)

@@ -34,6 +34,12 @@ def test_plans_follow_the_paper():
     assert "pica+both+damp_1_4@225" in damp  # paper Table 7: Both + damping [1, 4] for 25 epochs
     with pytest.raises(DragMeshError):
         plan("table-9", TINY)
+    # other rows, a preset beyond the paper among them: the same plan for those rows only
+    rows = ReproduceConfig(objects=("a",), seeds=(0,), methods=("tracking", "state_only", "pica_load"))
+    for table in ("main", "ablation"):
+        assert {s.label for s in plan(table, rows) if isinstance(s, Eval)} == {"tracking", "state_only", "pica_load"}
+    with pytest.raises(DragMeshError, match="pica_typo"):
+        ReproduceConfig(objects=("a",), methods=("pica_typo",))
 
 
 def test_every_table_on_a_tiny_preset_and_an_interrupted_run_resumes(tmp_path):
@@ -49,6 +55,11 @@ def test_every_table_on_a_tiny_preset_and_an_interrupted_run_resumes(tmp_path):
         reproduce(["all"], TINY, out, progress=False, on_step=interrupt)
     finished = [s for s in done if isinstance(s, Run)]
     stamps = {s: (s.folder(out) / "checkpoints" / "final").stat().st_mtime_ns for s in finished}
+    # the next run was stopped after it logged an epoch but before its first checkpoint: it starts again
+    steps = [s for t in TABLES for s in plan(t, TINY)]
+    stopped = next(s for s in steps if isinstance(s, Run) and s not in finished).folder(out)
+    stopped.mkdir(parents=True)
+    (stopped / "log.jsonl").write_text(json.dumps({"epoch": 1}) + "\n")
     paths = reproduce(["all"], TINY, out, progress=False)
     assert [p.name for p in paths] == [f"{t}.md" for t in TABLES]
     assert all((s.folder(out) / "checkpoints" / "final").stat().st_mtime_ns == t for s, t in stamps.items())
