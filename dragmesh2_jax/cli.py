@@ -219,7 +219,8 @@ def cmd_reproduce(args) -> int:
 
     seeds = [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]
     config = ReproduceConfig(objects=tuple(args.objects or [str(default_object())]), seeds=tuple(seeds),
-                             epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend)
+                             epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend,
+                             methods=tuple(args.methods.split(",")) if args.methods else None)
     for path in reproduce(args.tables, config, args.out, progress=not args.quiet, run=not args.tables_only):
         print(path.read_text())
         _err(f"table: {path}")
@@ -443,6 +444,8 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--objects", nargs="+", help="object folders (default: the packaged drawer); the first is the "
                                                   "diagnostic object of the appendix tables")
     prp.add_argument("--seeds", default="0,1,2")
+    prp.add_argument("--methods", help="comma-separated rows of the main and ablation tables instead of the paper's "
+                                       "(any method preset or controller)")
     prp.add_argument("--epochs", type=int, default=150, help="base budget; the appendix epochs scale with it")
     prp.add_argument("--num-envs", type=int)
     prp.add_argument("--episodes", type=int, default=20, help="episodes per cell")
