@@ -18,6 +18,8 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
+from dragmesh2_jax.policies.init import TORCH_LINEAR_INIT, Dense
+
 
 def gla_recurrent(q, k, v, g, state0=None):
     """Gated linear attention by ``lax.scan`` over time.
@@ -56,7 +58,7 @@ class _Kernel(nn.Module):
 
     @nn.compact
     def __call__(self):
-        return self.param("kernel", nn.initializers.lecun_normal(), self.shape)
+        return self.param("kernel", TORCH_LINEAR_INIT, self.shape)
 
 
 class GatedLinearAttention(nn.Module):
@@ -87,14 +89,14 @@ class GatedLinearAttention(nn.Module):
             tokens = lambda W: x @ (W_in @ W) + b_in @ W  # noqa: E731
             last = x[..., -1, :] @ W_in + b_in
         kernel = lambda name, n: _Kernel((self.hidden, n), name=name)()  # noqa: E731
-        q = split(nn.Dense(dk, use_bias=False, name="q_proj")(last), hk) * hk**-0.5
+        q = split(Dense(dk, use_bias=False, name="q_proj")(last), hk) * hk**-0.5
         k = split(tokens(kernel("k_proj", dk)), hk)
         v = split(tokens(kernel("v_proj", dv)), hv)
-        gk = nn.Dense(dk, name="gk_up", bias_init=nn.initializers.zeros)(tokens(kernel("gk_down", self.gate_rank)))
+        gk = Dense(dk, name="gk_up")(tokens(kernel("gk_down", self.gate_rank)))
         gk = split(jax.nn.log_sigmoid(gk) / self.gate_normalizer, hk)
         o = gla_last(q, k, v, gk)
         scale = self.param("g_norm_scale", nn.initializers.ones, (hv,))
         o = o * jax.lax.rsqrt(jnp.mean(o**2, axis=-1, keepdims=True) + self.norm_eps) * scale
-        g = split(nn.Dense(dv, use_bias=False, name="g_proj")(last), hv)
+        g = split(Dense(dv, use_bias=False, name="g_proj")(last), hv)
         o = (o * nn.swish(g)).reshape(*o.shape[:-2], dv)
-        return nn.Dense(self.hidden, use_bias=False, name="o_proj")(o)
+        return Dense(self.hidden, use_bias=False, name="o_proj")(o)

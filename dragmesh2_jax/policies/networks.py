@@ -2,7 +2,8 @@
 
 Two branches: the state s_t through an MLP [512, 512, 256] (ELU); the history block H_t (16 tokens of 102)
 through a temporal encoder to a 128-d contact-history feature z_hist, LayerNorm'd. The fused features give
-the Gaussian mean (51) and the value. The auxiliary head (128 -> 64 -> 4) reads z_hist only.
+the Gaussian mean (51) and the value. The auxiliary head (128 -> 64 -> 4) reads z_hist only. Every linear map
+starts as the reference's do (PyTorch's ``nn.Linear`` initialisation, ``policies/init.py``).
 
 Temporal encoders: ``gla`` (PICA), ``flat`` (flattened history MLP), ``gru``, ``transformer`` (causal,
 1 block), or ``none`` (state-only PPO). The aux targets are not an input of any of them (``ActorCritic``
@@ -22,10 +23,10 @@ import jax.numpy as jnp
 
 from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.policies.gla import GatedLinearAttention
+from dragmesh2_jax.policies.init import TORCH_LINEAR_INIT, Dense
 
 ENCODERS = ("none", "flat", "gla", "gru", "transformer")
 CRITICS = ("shared", "privileged")
-_zeros = nn.initializers.zeros
 
 
 class MLP(nn.Module):
@@ -34,7 +35,7 @@ class MLP(nn.Module):
     @nn.compact
     def __call__(self, x):
         for n in self.sizes:
-            x = nn.elu(nn.Dense(n, bias_init=_zeros)(x))
+            x = nn.elu(Dense(n)(x))
         return x
 
 
@@ -50,7 +51,7 @@ class TemporalEncoder(nn.Module):
         if self.kind == "flat":
             x = history.reshape(*history.shape[:-2], -1)
             return nn.LayerNorm(name="hist_norm")(MLP((256, self.dim))(x))
-        token_proj = nn.Dense(self.dim, bias_init=_zeros, name="token_proj")
+        token_proj = Dense(self.dim, name="token_proj")
         if self.kind == "gla":  # the last token's output only (closed form), token_proj folded into the layer
             token_proj(history[..., -1, :])  # creates its parameters
             proj = token_proj.variables["params"]
@@ -58,7 +59,8 @@ class TemporalEncoder(nn.Module):
             return nn.LayerNorm(name="hist_norm")(gla(history, (proj["kernel"], proj["bias"])))
         x = token_proj(history)
         if self.kind == "gru":
-            cell = nn.GRUCell(features=self.dim)
+            cell = nn.GRUCell(features=self.dim, kernel_init=TORCH_LINEAR_INIT,
+                              recurrent_kernel_init=TORCH_LINEAR_INIT)
             x = nn.RNN(cell)(x.reshape(-1, *x.shape[-2:])).reshape(x.shape)
         elif self.kind == "transformer":
             # one causal pre-LN block; only the last token's output is used, and under the causal mask it
@@ -66,8 +68,9 @@ class TemporalEncoder(nn.Module):
             L = x.shape[-2]
             x = x + self.param("pos", nn.initializers.normal(0.02), (L, self.dim))
             h = nn.LayerNorm()(x)
-            last = x[..., -1:, :] + nn.MultiHeadDotProductAttention(num_heads=self.heads)(h[..., -1:, :], h)
-            x = last + nn.Dense(self.dim, bias_init=_zeros)(MLP((2 * self.dim,))(nn.LayerNorm()(last)))
+            attention = nn.MultiHeadDotProductAttention(num_heads=self.heads, kernel_init=TORCH_LINEAR_INIT)
+            last = x[..., -1:, :] + attention(h[..., -1:, :], h)
+            x = last + Dense(self.dim)(MLP((2 * self.dim,))(nn.LayerNorm()(last)))
         else:
             raise ValueError(f"unknown temporal encoder {self.kind!r}")
         return nn.LayerNorm(name="hist_norm")(x[..., -1, :])  # the last token's output
@@ -88,15 +91,15 @@ class ActorCritic(nn.Module):
         self.state_mlp = MLP(self.state_sizes)
         if self.encoder != "none":
             self.temporal = TemporalEncoder(self.encoder, self.hist_dim, self.heads)
-        self.mu = nn.Dense(self.action_size, bias_init=_zeros)
+        self.mu = Dense(self.action_size)
         if self.critic == "privileged":
             self.critic_mlp = MLP(self.critic_sizes)
         elif self.critic != "shared":
             raise ValueError(f"unknown critic {self.critic!r}")
-        self.value = nn.Dense(1, bias_init=_zeros)
+        self.value = Dense(1)
         self.log_std = self.param("log_std", nn.initializers.constant(self.log_std_init), (self.action_size,))
         self.aux_head = MLP((64,))
-        self.aux_out = nn.Dense(self.aux_size, bias_init=_zeros)
+        self.aux_out = Dense(self.aux_size)
 
     def features(self, state, history):
         z = self.state_mlp(state)

@@ -81,6 +81,32 @@ def test_every_encoder_builds_and_runs(encoder):
     assert (z is None) == (encoder == "none")
 
 
+@pytest.mark.parametrize("encoder", ENCODERS)
+def test_linear_maps_start_as_the_references_pytorch_linears(encoder):
+    """Every kernel is drawn as PyTorch's nn.Linear draws it, U(-1/sqrt(fan_in), 1/sqrt(fan_in)), every bias is
+    zero (the reference's networks, facts §6); so the initial action means of unit-variance inputs sit inside the
+    action bounds. flax's default (lecun_normal, 3x the variance) puts 7-17% of them beyond +-1."""
+    net = ActorCritic(encoder=encoder)
+    ks, kh = jax.random.split(jax.random.key(1))
+    s, h, p = jax.random.normal(ks, (4096, 120)), jax.random.normal(kh, (4096, 16, 102)), jnp.zeros((4096, 24))
+    params = net.init(jax.random.key(0), s[:1], h[:1], p[:1], method=ActorCritic.init_all)
+    kernels = 0
+    for path, w in jax.tree_util.tree_leaves_with_path(params):
+        name = [getattr(k, "key", "") for k in path]
+        if name[-1] == "bias":
+            assert not np.any(w), name
+        elif name[-1] == "kernel":
+            # a DenseGeneral kernel of attention: (in, heads, head_dim), or (heads, head_dim, out) for "out"
+            fan_in = int(np.prod(w.shape[:-1])) if name[-2] == "out" else w.shape[0]
+            assert np.abs(w).max() <= fan_in**-0.5, name
+            if w.size >= 4096:
+                assert np.std(w) == pytest.approx((3 * fan_in) ** -0.5, rel=0.1), name
+            kernels += 1
+    assert kernels >= 5  # the state MLP, mu, value, aux head at least
+    mu = net.apply(params, s, h, p)[0]
+    assert float(jnp.mean(jnp.abs(mu) > 1.0)) < 0.01
+
+
 def test_privileged_critic_sees_what_the_actor_never_does():
     """Asymmetric critic: the value depends on the privileged block, the action mean does not; the shared
     critic (the paper's) ignores it."""
