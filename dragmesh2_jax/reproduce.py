@@ -166,8 +166,9 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
     if table in ("main", "ablation"):
         from dragmesh2_jax.runs import baseline_controllers
 
-        rows = c.methods or ((*baseline_controllers(), *MAIN_METHODS) if table == "main" else ABLATION_METHODS)
-        controllers = [n for n in rows if n in baseline_controllers()]
+        known = baseline_controllers()
+        rows = c.methods or ((*known, *MAIN_METHODS) if table == "main" else ABLATION_METHODS)
+        controllers = [n for n in rows if n in known]
         methods = [n for n in rows if n not in controllers]
         for obj in c.objects:
             steps += [Eval(obj, controller=n) for n in controllers]
@@ -296,14 +297,15 @@ def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bo
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     results = []
-    todo = [s for s in steps if not _done(s, out)]
+    current = {s: r for s in steps if isinstance(s, Eval) and (r := _current(s, out)) is not None}
+    todo = [s for s in steps if s not in current and not _done(s, out)]
     total = sum(_cost(s, c) for s in todo)
     with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), TextColumn("left"),
                   TimeRemainingColumn(), disable=not progress) as bar:
         task = bar.add_task("reproduce", total=max(total, 1.0))
         for step in steps:
-            if isinstance(step, Eval) and _done(step, out):
-                results.append(json.loads(step.path(out).read_text()))
+            if step in current:
+                results.append(current[step])
                 continue
             if step not in todo:
                 continue
@@ -320,13 +322,20 @@ def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bo
     return results
 
 
+def _current(ev: Eval, out: Path) -> dict | None:
+    """An evaluation's result when written, and of a run trained to the plan's epochs (a run extended to a
+    larger budget is evaluated again); None otherwise."""
+    path = ev.path(out)
+    if not path.is_file():
+        return None
+    result = json.loads(path.read_text())
+    return result if ev.run is None or result.get("run_epochs") == ev.run.epochs else None
+
+
 def _done(step: Run | Eval, out: Path) -> bool:
-    """A run is done at its epochs; an evaluation when written, of a run trained to the plan's epochs (a
-    run extended to a larger budget is evaluated again)."""
+    """A run is done at its epochs; an evaluation when its result is current."""
     if isinstance(step, Eval):
-        path = step.path(out)
-        return path.is_file() and (step.run is None or
-                                   json.loads(path.read_text()).get("run_epochs") == step.run.epochs)
+        return _current(step, out) is not None
     return trained_epochs(step.folder(out)) >= step.epochs
 
 
@@ -489,7 +498,7 @@ def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: 
     steps = list(dict.fromkeys(steps))  # tables share runs (PICA in main and ablation; the base policy)
     t0 = time.time()
     results = execute(steps, c, out, progress, on_step) if run else \
-        [json.loads(s.path(out).read_text()) for s in steps if isinstance(s, Eval) and _done(s, out)]
+        [r for s in steps if isinstance(s, Eval) and (r := _current(s, out)) is not None]
     paths = [write_table(t, c, [r for r in results if r["label"] in labels], out)
              for t in tables for labels in [_labels(t, c)]]  # one plan per table, not one per result
     if run:
