@@ -423,7 +423,8 @@ def build_parser() -> argparse.ArgumentParser:
     pev.add_argument("--checkpoint",
                      help="a run folder (its best_robust checkpoint, else final) or one of its checkpoints/*")
     pev.add_argument("--method", help="a controller that needs no training, instead of --checkpoint: tracking "
-                                      "(the expert drag replayed as PD targets) | parallel_jaw (the GT-part-pose "
+                                      "(the expert drag replayed as PD targets) | tracking_delta (the same drag "
+                                      "through the policies' action increments) | parallel_jaw (the GT-part-pose "
                                       "gripper primitive)")
     pev.add_argument("--object", help="object folder (with --method)")
     pev.add_argument("--trajectory", help="trajectory file (with --method; default: generate one)")

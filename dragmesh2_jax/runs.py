@@ -299,10 +299,12 @@ def evaluate_checkpoint(checkpoint: str, dampings: list[float], modes: list[str]
 def baseline_controllers() -> dict:
     """Controllers that need no training, by name: ``name -> (task -> (the task it runs, Controller))`` (the
     primitive runs its own gripper in the task's place)."""
+    from dragmesh2_jax.baselines import tracking
     from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
-    from dragmesh2_jax.baselines.tracking import TRACKING, tracking_controller
 
-    return {TRACKING: lambda task: (task, tracking_controller(task)), PARALLEL_JAW: parallel_jaw}
+    return {tracking.TRACKING: lambda task: (task, tracking.tracking_controller(task)),
+            tracking.TRACKING_DELTA: lambda task: (task, tracking.tracking_delta_controller(task)),
+            PARALLEL_JAW: parallel_jaw}
 
 
 def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, dampings: list[float], modes: list[str],

@@ -1,9 +1,15 @@
 """Trajectory-tracking baseline (paper Table 2, row 1; Appendix A.2): each next reference hand pose of the
 drag phase becomes the hand PD target; the object state is never replayed, so the part opens only if the
 replayed hand motion drags it through contact. It is a controller of the evaluator (``controls="targets"``):
-the same cells and metric names as every policy. After the drag block it holds the last pose."""
+the same cells and metric names as every policy. After the drag block it holds the last pose.
+
+``tracking_delta`` is the reference's ``delta_action`` mode of the same replay (facts §10): the drag sent through the
+learned policies' action interface, a = clip((target - q) / alpha, -1, 1), so the PD target never leads the hand by
+more than alpha. It tells apart what the increment interface allows from what a policy learns to do with it."""
 
 from __future__ import annotations
+
+import functools
 
 import jax.numpy as jnp
 import numpy as np
@@ -12,6 +18,7 @@ from dragmesh2_jax.evaluation.evaluate import Controller, make_rollout
 from dragmesh2_jax.task.env import Obs, PullTask
 
 TRACKING = "tracking"
+TRACKING_DELTA = "tracking_delta"
 
 
 def drag_targets(task: PullTask) -> np.ndarray:
@@ -36,6 +43,19 @@ def tracking_controller(task: PullTask) -> Controller:
     """The expert drag replayed open-loop (deterministic: det and stoch are the same controller)."""
     return Controller(TRACKING, lambda deterministic: replay, jnp.asarray(drag_targets(task)), controls="targets",
                       key=TRACKING)
+
+
+def increments(alpha: float, targets: jnp.ndarray, obs: Obs, key) -> jnp.ndarray:
+    """The action whose PD target q + alpha a comes nearest this step's reference pose."""
+    q = obs.state[..., : targets.shape[-1]]  # s_t starts with the hand's joint positions
+    return jnp.clip((replay(targets, obs, key) - q) / alpha, -1.0, 1.0)
+
+
+def tracking_delta_controller(task: PullTask) -> Controller:
+    """The expert drag through the action interface (deterministic, like ``tracking``)."""
+    policy = functools.partial(increments, task.config.alpha)
+    return Controller(TRACKING_DELTA, lambda deterministic: policy, jnp.asarray(drag_targets(task)),
+                      key=TRACKING_DELTA)
 
 
 def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 0) -> list[dict]:
