@@ -164,10 +164,12 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
         raise DragMeshError(f"unknown table {table!r} (choose from {', '.join(TABLES)}, all)")
     steps: list[Run | Eval] = []
     if table in ("main", "ablation"):
+        from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW
+        from dragmesh2_jax.baselines.tracking import TRACKING
         from dragmesh2_jax.runs import baseline_controllers
 
         known = baseline_controllers()
-        rows = c.methods or ((*known, *MAIN_METHODS) if table == "main" else ABLATION_METHODS)
+        rows = c.methods or ((TRACKING, PARALLEL_JAW, *MAIN_METHODS) if table == "main" else ABLATION_METHODS)
         controllers = [n for n in rows if n in known]
         methods = [n for n in rows if n not in controllers]
         for obj in c.objects:

@@ -35,9 +35,10 @@ def test_plans_follow_the_paper():
     with pytest.raises(DragMeshError):
         plan("table-9", TINY)
     # other rows, a preset beyond the paper among them: the same plan for those rows only
-    rows = ReproduceConfig(objects=("a",), seeds=(0,), methods=("tracking", "state_only", "pica_load"))
+    extra = ("tracking", "tracking_delta", "state_only", "pica_load")
+    rows = ReproduceConfig(objects=("a",), seeds=(0,), methods=extra)
     for table in ("main", "ablation"):
-        assert {s.label for s in plan(table, rows) if isinstance(s, Eval)} == {"tracking", "state_only", "pica_load"}
+        assert {s.label for s in plan(table, rows) if isinstance(s, Eval)} == set(extra)
     with pytest.raises(DragMeshError, match="pica_typo"):
         ReproduceConfig(objects=("a",), methods=("pica_typo",))
 
