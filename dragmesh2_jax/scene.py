@@ -42,6 +42,8 @@ WRIST_SITE = "wrist_ft"
 TARGET_JOINT = "target_joint"
 TARGET_BODY = "object_target"
 HANDLE_SITE = "handle"
+#: Physics steps from rest that settle a written start state (facts §4: the reference's 4 settle substeps).
+RESET_SETTLE_SUBSTEPS = 4
 
 
 @dataclass(frozen=True)
@@ -120,6 +122,20 @@ class Scene:
     xml: str = field(repr=False)
     handle: HandleFrame  # world frame, object closed
     stats: dict
+
+    def settled_state(self, hand_q: np.ndarray, obj_q: float,
+                      substeps: int = RESET_SETTLE_SUBSTEPS) -> mujoco.MjData:
+        """The state a task's reset writes: hand pose ``hand_q`` (clipped to its limits) with PD target = that pose,
+        the target joint at ``obj_q``, then ``substeps`` physics steps from rest at nominal damping (facts §4)."""
+        m, ids = self.model, self.ids
+        d = mujoco.MjData(m)
+        d.qpos[ids.hand_qpos] = np.clip(hand_q, ids.hand_range[:, 0], ids.hand_range[:, 1])
+        d.qpos[ids.target_qpos] = obj_q
+        d.ctrl[ids.hand_actuators] = d.qpos[ids.hand_qpos]
+        mujoco.mj_forward(m, d)
+        for _ in range(substeps):
+            mujoco.mj_step(m, d)
+        return d
 
     def initial_data(self) -> mujoco.MjData:
         """MjData at the closed object and the hand at the origin with PD targets = current pose."""

@@ -5,7 +5,7 @@ handle to the C engine's host models, the bank of start states, the :class:`Layo
 of every function, so objects of the same model structure share one compiled program. A backend offers:
   * ``reset_state(data, i)``  the i-th post-settle start state: the expert grasp, or one of a bank of perturbed
                         expert grasps (identical on every backend: each is computed once on the host with the
-                        C engine, see :func:`settled_reset`);
+                        C engine, see :meth:`Scene.settled_state`);
   * ``step(data, ps, ctrl, fields)``  n substeps with hand PD targets ``ctrl`` (51,) and this world's values of
                         any model fields (:data:`WorldFields`, e.g. ``dof_damping``, ``geom_friction``,
                         ``body_mass``): the Playground ``(model, in_axes)`` pattern, on both engines;
@@ -21,7 +21,6 @@ from typing import Any, Protocol
 
 import jax
 import jax.numpy as jnp
-import mujoco
 import numpy as np
 from flax import struct
 
@@ -85,20 +84,6 @@ class Backend(Protocol):
 
 #: A start state: (hand q (51), target-joint q), written at rest and settled (the expert grasp, or a perturbed one).
 Start = tuple[np.ndarray, float]
-
-
-def settled_reset(scene: Scene, hand_q: np.ndarray, obj_q: float, settle_substeps: int) -> mujoco.MjData:
-    """The start state after ``settle_substeps`` physics steps from rest with PD target = hand pose
-    (facts §4: 4 settle steps), at nominal damping. Returned MjData is what every backend resets to."""
-    m, ids = scene.model, scene.ids
-    d = mujoco.MjData(m)
-    d.qpos[ids.hand_qpos] = np.clip(hand_q, ids.hand_range[:, 0], ids.hand_range[:, 1])
-    d.qpos[ids.target_qpos] = obj_q
-    d.ctrl[ids.hand_actuators] = d.qpos[ids.hand_qpos]
-    mujoco.mj_forward(m, d)
-    for _ in range(settle_substeps):
-        mujoco.mj_step(m, d)
-    return d
 
 
 def stack_states(states: list) -> Any:

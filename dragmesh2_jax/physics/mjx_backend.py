@@ -14,7 +14,7 @@ from flax import struct
 with contextlib.redirect_stdout(sys.stderr):  # mujoco.mjx prints "Failed to import warp" when warp is absent
     from mujoco import mjx
 
-from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, settled_reset, stack_states, take_state
+from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, stack_states, take_state
 from dragmesh2_jax.scene import SENSORS, Scene
 
 FORCE_SLICE = slice(3 * len(SENSORS), None)  # the contact-load sensors: the last ones in sensordata
@@ -85,7 +85,7 @@ class MjxBackend:
                  impl: str = "jax"):
         avoid_lapack_deadlock()
         self.scene, self.substeps, self.impl = scene, substeps, impl
-        bank = stack_states([mjx.put_data(scene.model, settled_reset(scene, hand_q, obj_q, settle_substeps),
+        bank = stack_states([mjx.put_data(scene.model, scene.settled_state(hand_q, obj_q, settle_substeps),
                                           impl=impl) for hand_q, obj_q in starts])
         self.data = MjxData(model=mjx.put_model(scene.model, impl=impl), bank=bank, layout=Layout.of(scene))
 

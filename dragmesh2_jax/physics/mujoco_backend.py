@@ -27,7 +27,7 @@ import numpy as np
 from flax import struct
 from mujoco import rollout
 
-from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, settled_reset, stack_states, take_state
+from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, stack_states, take_state
 from dragmesh2_jax.scene import SENSORS, Scene
 
 
@@ -125,7 +125,7 @@ class MujocoBackend:
         host = next(_NEXT_HOST)
         _HOSTS[host] = _HostStepper(scene, substeps, self.nthread)
         weakref.finalize(self, _HOSTS.pop, host, None)
-        ds = [settled_reset(scene, hand_q, obj_q, settle_substeps) for hand_q, obj_q in starts]
+        ds = [scene.settled_state(hand_q, obj_q, settle_substeps) for hand_q, obj_q in starts]
         bank = stack_states([CState(qpos=jnp.asarray(d.qpos), qvel=jnp.asarray(d.qvel),
                                     sensors=jnp.asarray(d.sensordata)) for d in ds])
         self.data = CData(host=jnp.int32(host), bank=bank, layout=Layout.of(scene))

@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass, field
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS
 
 BACKENDS = ("auto", "mjx", "mujoco")
 IMPLS = ("jax", "warp")
@@ -114,7 +115,7 @@ class TaskConfig:
     aux_window: int = 5  # K
     rho: float = 0.5  # success-threshold fraction
     d_detach: float = 0.10  # m
-    settle_substeps: int = 4  # physics steps from rest after writing the expert grasp (facts §4)
+    settle_substeps: int = RESET_SETTLE_SUBSTEPS  # physics steps from rest after writing the start (facts §4)
     damping_range: tuple[float, float] = (1.0, 2.0)  # x nominal, sampled per reset (training)
     damping_fixed: float | None = None  # evaluation: a fixed multiplier (x1, x2, x4, ...) instead
     friction_range: tuple[float, float] | None = None  # object friction scale; off by default

@@ -9,7 +9,13 @@ hand tracking it through its PD actuators; the object moves only through contact
 simulated state, so ``joint_positions`` is what contact achieved.
 
 If a grasp placement fails the quality gate, a few alternative palm placements are tried in order
-(``GeneratorParams.placements``); the header records which one passed and every attempt.
+(``GeneratorParams.placements``); the header records which one passed and every attempt. Of the placements that
+pass, the first whose hand *holds* the handle at the drag start is kept (``grip``: at least
+``min_handle_contacts`` hand geoms touch the handle in the state the task resets to, where every PD target equals
+the pose, so nothing squeezes). A fingertip grasp passes the rest of the gate, because the scripted drag closes the
+fingers around the bar as it pulls, but a policy, whose zero action leaves the fingers where they are, loses
+such a handle to undirected exploration within a few dozen steps and learns not to pull (RESULTS.md, the drawer
+regression). When no passing placement grips, the first that passes is kept and the header says so.
 """
 
 from __future__ import annotations
@@ -24,11 +30,11 @@ from scipy.spatial.transform import Rotation
 from dragmesh2_jax.assets import hand as hand_lib
 from dragmesh2_jax.assets.gapartnet import GAPartNetObject, axis_angle_matrix, opening_direction
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.scene import Scene, SceneConfig, build_scene
+from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, Scene, SceneConfig, build_scene
 from dragmesh2_jax.trajectory import grasp
 from dragmesh2_jax.trajectory.schema import Frame, Trajectory
 
-GENERATOR_VERSION = "1.0"
+GENERATOR_VERSION = "1.1"  # 1.1: the grip at the drag start picks among passing placements
 
 
 @dataclass(frozen=True)
@@ -64,6 +70,10 @@ class GeneratorParams:
     # the task's detachment rule (TaskConfig.d_detach): once the palm is this near the handle in the drag, it stays
     # so until the joint passes q_done, so that tracking the trajectory from the task's reset is never detached
     max_palm_distance: float = 0.10  # m
+    # grip at the drag start (preferred among passing placements): hand geoms touching the handle's box, enlarged
+    # by ``grip_margin``, after the task's reset settle
+    min_handle_contacts: int = 3
+    grip_margin: float = 0.005  # m
 
     def __post_init__(self):
         for k in ("approach_frames", "grasp_frames", "drag_frames", "release_frames", "substeps"):
@@ -219,6 +229,32 @@ def execute(scene: Scene, plan: Plan, params: GeneratorParams, damping_scale: fl
     return frames, {"max_penetration_m": pen, "hand_limit_excess": max(limit_excess, 0.0), "palm_dist": palm_dist}
 
 
+def handle_grip(scene: Scene, d: mujoco.MjData, margin: float) -> tuple[int, float]:
+    """(hand geoms in contact with the handle, their summed normal force in N) in state ``d``: contacts between a
+    hand geom and the object whose point lies in the handle's box grown by ``margin`` (a handle need not be a mesh
+    of its own)."""
+    m, h = scene.model, scene.handle
+    R = np.stack([h.long_axis, h.normal, h.short_axis], axis=1)
+    half = np.array([h.length, h.thickness, h.width]) / 2 + margin
+    hand = set(scene.ids.hand_geoms.tolist())
+    touching, force, f6 = set(), 0.0, np.zeros(6)
+    for i, c in enumerate(d.contact[: d.ncon]):
+        if (c.geom1 in hand) == (c.geom2 in hand) or np.any(np.abs(R.T @ (c.pos - h.centre)) > half):
+            continue
+        mujoco.mj_contactForce(m, d, i, f6)
+        touching.add(c.geom1 if c.geom1 in hand else c.geom2)
+        force += float(f6[0])
+    return len(touching), force
+
+
+def start_grip(scene: Scene, frames: list[Frame], params: GeneratorParams) -> tuple[int, float]:
+    """:func:`handle_grip` in the state the task resets to: the drag-start frame, settled as a reset settles it."""
+    traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)}})
+    frame = frames[traj.drag_start]
+    d = scene.settled_state(np.asarray(frame.hand_q), frame.joint_positions[traj.target_index], RESET_SETTLE_SUBSTEPS)
+    return handle_grip(scene, d, params.grip_margin)
+
+
 def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorParams, extent: float) -> dict:
     traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)}})
     drag = [i for i, f in enumerate(frames) if f.phase == "drag"]
@@ -249,8 +285,10 @@ def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorPar
     if not held:
         reasons.append(f"the palm left the handle ({palm:.3f} m > {params.max_palm_distance} m) before q_done: "
                        "tracking would count it as detached")
+    contacts, force = start_grip(scene, frames, params)
     return {"passed": bool(reached and within and shallow and held), "opened_past_q_done": bool(reached),
-            "max_palm_distance_m": round(palm, 4),
+            "max_palm_distance_m": round(palm, 4), "grip": contacts >= params.min_handle_contacts,
+            "handle_contacts": contacts, "handle_force_n": round(force, 2),
             "achieved_opening": round(achieved, 6), "planned_opening": round(float(extent), 6),
             "q_done": q_done, "max_penetration_m": round(stats["max_penetration_m"], 6),
             "hand_within_limits": bool(within), "reasons": reasons}
@@ -275,13 +313,18 @@ def generate(obj: GAPartNetObject, params: GeneratorParams = GeneratorParams(), 
     for k, placement in enumerate(params.placements):
         frames, stats = execute(scene, make_plan(scene, params, placement), params)
         q = quality(scene, frames, stats, params, extent)
-        attempts.append({"placement": k, **{x: q[x] for x in ("passed", "achieved_opening", "max_penetration_m",
-                                                                 "max_palm_distance_m")}})
-        if best is None or q["passed"] or q["achieved_opening"] > best[1]["achieved_opening"]:
-            best = (frames, q, k, placement)
-        if q["passed"]:
+        attempts.append({"placement": k, **{x: q[x] for x in ("passed", "grip", "handle_contacts", "achieved_opening",
+                                                                 "max_penetration_m", "max_palm_distance_m")}})
+        # gripping and passing, then passing (the first of each), then the farthest opening
+        rank = (q["passed"] and q["grip"], q["passed"], 0.0 if q["passed"] else q["achieved_opening"])
+        if best is None or rank > best[0]:
+            best = (rank, frames, q, k, placement)
+        if q["passed"] and q["grip"]:
             break
-    frames, q, k, placement = best
+    _, frames, q, k, placement = best
+    if q["passed"] and not q["grip"]:
+        q["note"] = (f"no passing placement grips the handle at the drag start: {q['handle_contacts']} hand geoms "
+                     f"touch it in the one kept, {params.min_handle_contacts} wanted (a fingertip grasp)")
     h = scene.handle
     t = obj.target
     header = {

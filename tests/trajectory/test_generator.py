@@ -79,3 +79,16 @@ def test_euler_branch_is_continuous_and_within_limits():
     e = continuous_euler(matrix_from_wrist_euler([1.6, 0.25, 3.1]), prev)
     np.testing.assert_allclose(matrix_from_wrist_euler(e), matrix_from_wrist_euler([1.6, 0.25, 3.1]), atol=1e-9)
     assert np.all(np.abs(e) <= np.pi + 1e-9)
+
+
+def test_a_fingertip_grasp_is_passed_over_for_one_that_grips_the_handle():
+    """The packaged heavy drawer (a long bar handle): the reference's palm placement passes the rest of the gate
+    with two hand geoms on the handle at the drag start (the scripted drag closes the fingers as it pulls), so the
+    generator keeps a later placement whose fingers hold the bar in the state the task resets to."""
+    t = generate(load_gapartnet(procedural.packaged_object(procedural.HEAVY_DRAWER)))
+    first, kept = t.header["generator"]["attempts"][0], t.header["generator"]["attempts"][-1]
+    wanted = GeneratorParams().min_handle_contacts
+    assert first["passed"] and not first["grip"] and first["handle_contacts"] < wanted
+    assert kept["passed"] and kept["grip"] and kept["handle_contacts"] >= wanted
+    q = t.header["quality"]
+    assert q["passed"] and q["grip"] and "note" not in q
