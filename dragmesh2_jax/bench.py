@@ -1,6 +1,7 @@
 """``dragmesh2 bench env``: physics throughput of the pulling task per backend and batch size;
 ``dragmesh2 bench train``: PPO epochs per second, compile time and the paper's per-object budget, one run or a
-seed-vmapped column of runs as one program."""
+seed-vmapped column of runs as one program; ``dragmesh2 bench learning``: short training curves compared with
+recorded ones (the learning regression check to run before a change to the task, policies or PPO lands)."""
 
 from __future__ import annotations
 
@@ -168,3 +169,53 @@ def bench_soak_sweep(objects: list[str] | None, dampings: list[float], num_envs:
     for obj in objects or [str(default_object())]:
         rows += bench_soak(load_task(obj, None, backend, impl), dampings, num_envs, steps, seed)
     return rows
+
+
+# ------------------------------------------------------------------------------- learning regression
+#: Training metrics the learning check records per epoch and seed.
+CURVE_KEYS = ("success", "progress", "detach")
+COLLAPSE_WINDOW = 5  # trailing epochs in which detachment and progress both near zero is a collapse
+COLLAPSE_LEVEL = 0.05
+
+
+def learning_curves(objects: list[str], method: str = "pica", epochs: int = 40, seeds: tuple[int, ...] = (0, 1, 2),
+                    backend: str = "mujoco", report=None) -> dict:
+    """Per object, ``method`` trained ``epochs`` epochs from each seed (the seeds as one program) with the paper's
+    batch: the training success, progress and detachment of every epoch and seed. ``report(object, row)`` sees the
+    mean over seeds of each epoch."""
+    from dragmesh2_jax.runs import make_trainer
+
+    t0 = time.perf_counter()
+    curves = {}
+    for obj in objects:
+        trainer = make_trainer(obj, None, method, backend, epochs=epochs)
+        ts = trainer.init_runs(list(seeds))
+        rows = {k: [] for k in CURVE_KEYS}
+        for e in range(epochs):
+            ts, m = trainer.epoch_runs(ts)
+            m = jax.device_get(m)
+            for k in CURVE_KEYS:
+                rows[k].append([round(float(x), 4) for x in np.asarray(m[k])])
+            if report:
+                report(obj, {"epoch": e + 1, **{k: float(np.mean(rows[k][-1])) for k in CURVE_KEYS}})
+        curves[obj] = rows
+    return {"method": method, "epochs": epochs, "seeds": list(seeds), "backend": backend, "curves": curves,
+            "wall_s": round(time.perf_counter() - t0, 1), **machine()}
+
+
+def learning_regressions(current: dict, recorded: dict, tolerance: float) -> list[str]:
+    """What got worse in ``current`` against ``recorded`` (curves of :func:`learning_curves`): a seed whose
+    training collapsed to holding still (detachment and progress both under 0.05 over the last epochs), or an
+    object whose final success (last epochs, mean over seeds) fell more than ``tolerance`` below the record."""
+    problems = []
+    for obj, rows in current["curves"].items():
+        tail = {k: np.asarray(v[-COLLAPSE_WINDOW:]) for k, v in rows.items()}
+        still = np.all((tail["detach"] < COLLAPSE_LEVEL) & (tail["progress"] < COLLAPSE_LEVEL), axis=0)
+        problems += [f"{obj}: seed {s} collapsed to holding still (detach and progress < {COLLAPSE_LEVEL} over the "
+                     f"last {COLLAPSE_WINDOW} epochs)" for s, bad in zip(current["seeds"], still, strict=True) if bad]
+        if obj in recorded["curves"]:
+            now = float(tail["success"].mean())
+            then = float(np.mean(recorded["curves"][obj]["success"][-COLLAPSE_WINDOW:]))
+            if now < then - tolerance:
+                problems.append(f"{obj}: final training success {now:.2f}, recorded {then:.2f} (tolerance {tolerance})")
+    return problems

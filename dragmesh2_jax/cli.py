@@ -151,6 +151,42 @@ def cmd_bench_train(args) -> int:
     return 0
 
 
+def cmd_bench_learning(args) -> int:
+    from dragmesh2_jax.bench import learning_curves, learning_regressions
+    from dragmesh2_jax.io import atomic_write_json
+
+    recorded = None
+    if args.against:
+        recorded = _read_json(args.against)
+        objects = args.objects or list(recorded["curves"])
+        method, epochs, seeds = recorded["method"], recorded["epochs"], tuple(recorded["seeds"])
+    else:
+        from dragmesh2_jax.assets.procedural import HEAVY_DRAWER, packaged_object
+
+        objects = args.objects or [str(packaged_object(HEAVY_DRAWER))]
+        method, epochs = args.method, args.epochs
+        seeds = tuple(int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0))
+    current = learning_curves(objects, method, epochs, seeds, args.backend, report=lambda o, r: _err(
+        f"{Path(o).name:>20s} epoch {r['epoch']:3d}  success {r['success']:.2f}  progress {r['progress']:.2f}  "
+        f"detach {r['detach']:.2f}"))
+    if args.record:
+        atomic_write_json(args.record, current)
+        _err(f"recorded: {args.record}")
+    problems = learning_regressions(current, recorded or {"curves": {}}, args.tolerance)
+    for p in problems:
+        print(f"regression: {p}")
+    if not problems:
+        print(f"no learning regression ({len(objects)} objects x {len(seeds)} seeds x {epochs} epochs)")
+    return 1 if problems else 0
+
+
+def _read_json(path: str) -> dict:
+    try:
+        return json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise DragMeshError(f"{path}: cannot read recorded curves ({e})") from None
+
+
 def _add_scene_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scale", type=float, default=0.4, help="object scale (default 0.4, as the reference)")
     p.add_argument("--collide", choices=["target", "all"], default="target",
@@ -383,6 +419,19 @@ def build_parser() -> argparse.ArgumentParser:
     pbs.add_argument("--json", action="store_true")
     _add_backend_args(pbs)
     pbs.set_defaults(func=cmd_bench_soak)
+    pbl = bsub.add_parser("learning", help="short training curves vs recorded ones: exit 1 on a collapse or a "
+                                           "drop in final success (run before a change to task, policies or PPO)")
+    pbl.add_argument("--objects", nargs="+", help="object folders (default: the recorded ones, else the packaged "
+                                                  "heavy drawer)")
+    pbl.add_argument("--against", metavar="FILE.json", help="recorded curves to compare with (their method, epochs "
+                                                            "and seeds are used)")
+    pbl.add_argument("--record", metavar="FILE.json", help="write the curves measured now")
+    pbl.add_argument("--method", default="pica")
+    pbl.add_argument("--epochs", type=int, default=40)
+    pbl.add_argument("--seeds", default="0,1,2")
+    pbl.add_argument("--tolerance", type=float, default=0.2, help="allowed drop of final training success")
+    pbl.add_argument("--backend", default="mujoco")
+    pbl.set_defaults(func=cmd_bench_learning)
 
     ptr = sub.add_parser("train", help="train a policy with PPO")
     ptr.add_argument("--method", default="pica", help="pica | state_only | flat_history | gru | transformer | "

@@ -71,3 +71,19 @@ def test_bench_soak_counts_non_finite_worlds_per_damping_and_keeps_the_batch(dra
     x1, x8 = bench_soak(task, [1.0, 8.0], num_envs=2, steps=3)
     assert x1["nonfinite_worlds"] == 0 and x8["nonfinite_worlds"] == 2 and x8["nonfinite_events"] == 6
     assert x1["batch_finite"] and x8["batch_finite"]  # isolated: reset, the batch goes on
+
+
+def test_the_learning_check_names_a_collapse_and_a_drop_in_success():
+    from dragmesh2_jax.bench import learning_regressions
+
+    def curves(success, progress, detach):  # 6 epochs x 2 seeds, each constant
+        return {"seeds": [0, 1], "curves": {"obj": {k: [list(v)] * 6 for k, v in
+                                                     (("success", success), ("progress", progress),
+                                                      ("detach", detach))}}}
+
+    recorded = curves((0.9, 0.8), (0.5, 0.5), (0.1, 0.2))
+    assert learning_regressions(recorded, recorded, 0.2) == []
+    frozen = curves((0.0, 0.8), (0.01, 0.5), (0.0, 0.2))  # seed 0 holds still
+    problems = learning_regressions(frozen, recorded, 0.2)
+    assert any("seed 0 collapsed" in p for p in problems) and any("final training success 0.40" in p for p in problems)
+    assert learning_regressions(frozen, {"curves": {}}, 0.2) == [problems[0]]  # nothing recorded: collapse only
