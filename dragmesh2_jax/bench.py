@@ -14,7 +14,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from dragmesh2_jax.assets.hand import NUM_DOFS
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.ppo.train import TrainProgram, epoch_jit, epoch_runs, init_jit, init_runs, run_mesh, seed_keys
+from dragmesh2_jax.runs.build import load_task, program_of
+from dragmesh2_jax.runs.spec import method_spec
 from dragmesh2_jax.task.env import PullTask, make_batched
+from dragmesh2_jax.task.wrappers import AutoReset
 
 
 def machine() -> dict:
@@ -31,7 +36,7 @@ def machine() -> dict:
 
 def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     """Time ``steps`` control steps of ``num_envs`` worlds with random actions (compile timed separately)."""
-    reset, step = make_batched(task)
+    reset, step = make_batched(AutoReset(task))
     keys = jax.random.split(jax.random.PRNGKey(seed), num_envs)
     actions = jnp.asarray(np.random.default_rng(seed).uniform(-1, 1, (steps, num_envs, NUM_DOFS)).astype(np.float32))
 
@@ -57,19 +62,19 @@ def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
 PAPER_EPOCHS = 150  # the paper's per-object budget: 150 epochs x 64 envs x 32 steps
 
 
-def bench_train(trainer, epochs: int, runs: int = 1) -> dict:
-    """Time one compiling epoch and ``epochs`` more of ``trainer`` (``runs`` > 1: that many seeds as one
-    vmapped program, sharded over the devices when they divide it). A second trainer of the same signature
-    (another object of the same structure) finds the program compiled: its first epoch shows it. ``budget_s``:
-    the compiling epoch and 149 more at this batch (the paper's per-object budget at 64 envs)."""
-    from dragmesh2_jax.ppo.runner import run_mesh
-
+def bench_train(program: TrainProgram, epochs: int, runs: int = 1) -> dict:
+    """Time one compiling epoch and ``epochs`` more of ``program`` (``runs`` > 1: that many seeds as one
+    vmapped program, sharded over the devices when they divide it). A second program of the same signature
+    (another object of the same structure) finds it compiled: its first epoch shows it. ``budget_s``: the
+    compiling epoch and 149 more at this batch (the paper's per-object budget at 64 envs)."""
+    data = program.task.data
     if runs > 1:
         mesh = run_mesh(runs)
-        ts = trainer.init_runs(list(range(runs)))
-        epoch = lambda ts: trainer.epoch_runs(ts, mesh)  # noqa: E731
+        ts = init_runs(program, data, seed_keys(list(range(runs))))
+        epoch = lambda ts: epoch_runs(program, data, ts, mesh)  # noqa: E731
     else:
-        ts, epoch = trainer.init(), trainer.epoch
+        ts = init_jit(program, data, seed_keys([0])[0])
+        epoch = lambda ts: epoch_jit(program, data, ts)  # noqa: E731
     jax.block_until_ready(ts)
     t0 = time.perf_counter()
     ts, _ = epoch(ts)
@@ -80,12 +85,12 @@ def bench_train(trainer, epochs: int, runs: int = 1) -> dict:
         ts, _ = epoch(ts)
     jax.block_until_ready(ts)
     per = (time.perf_counter() - t0) / epochs
-    c = trainer.config
+    c = program.config
     steps = runs * c.num_envs * c.rollout_len
-    return {"method": trainer.method.name, "backend": trainer.task.backend.name, "num_envs": c.num_envs,
-            "runs": runs, "object": trainer.task.scene.obj.object_id, "first_epoch_s": round(first, 2),
+    return {"method": program.method.name, "backend": program.task.backend.name, "num_envs": c.num_envs,
+            "runs": runs, "object": program.task.scene.obj.object_id, "first_epoch_s": round(first, 2),
             "s_per_epoch": round(per, 4), "env_steps_per_s": round(steps / per, 1),
-            "physics_steps_per_s": round(steps * trainer.task.substeps / per, 1),
+            "physics_steps_per_s": round(steps * program.task.substeps / per, 1),
             "budget_s": round(first + (PAPER_EPOCHS - 1) * per, 1), **machine()}
 
 
@@ -95,7 +100,7 @@ def bench_soak(task: PullTask, dampings: list[float], num_envs: int, steps: int,
     of the batch goes on: the batch's final observations are checked finite)."""
     n = len(dampings) * num_envs
     scales = jnp.repeat(jnp.asarray(dampings, jnp.float32), num_envs)
-    reset, step = make_batched(task)
+    reset, step = make_batched(AutoReset(task))
 
     @jax.jit
     def run(key):
@@ -130,9 +135,6 @@ def bench_env_sweep(object_dir: str | None, trajectory: str | None, backends: li
                     steps: int, mjx_steps: int | None = None, impl: str = "jax", report=None) -> list[dict]:
     """``bench_env`` for every backend x batch size on one object (default: the packaged drawer); MJX may take
     fewer steps (``mjx_steps``: it is slow on a CPU). ``report(row)`` sees each row as it is measured."""
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.runs import load_task
-
     rows = []
     for backend in backends:
         task = load_task(object_dir or str(default_object()), trajectory, backend, impl)
@@ -146,14 +148,12 @@ def bench_env_sweep(object_dir: str | None, trajectory: str | None, backends: li
 def bench_train_sweep(objects: list[str] | None, method: str, backend: str, num_envs: list[int], runs: list[int],
                       epochs: int, impl: str = "jax", report=None) -> list[dict]:
     """``bench_train`` for every object x batch size x run count (objects of one structure share a program)."""
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.runs import make_trainer
-
     rows = []
     for obj in objects or [str(default_object())]:
         for n in num_envs:
             for r in runs:
-                rows.append(bench_train(make_trainer(obj, None, method, backend, impl, num_envs=n), epochs, r))
+                spec = method_spec(method, obj, {"num_envs": n}, backend=backend, impl=impl)
+                rows.append(bench_train(program_of(spec), epochs, r))
                 if report:
                     report(rows[-1])
     return rows
@@ -162,9 +162,6 @@ def bench_train_sweep(objects: list[str] | None, method: str, backend: str, num_
 def bench_soak_sweep(objects: list[str] | None, dampings: list[float], num_envs: int, steps: int, seed: int = 0,
                      backend: str = "auto", impl: str = "jax") -> list[dict]:
     """``bench_soak`` on every object (default: the packaged drawer)."""
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.runs import load_task
-
     rows = []
     for obj in objects or [str(default_object())]:
         rows += bench_soak(load_task(obj, None, backend, impl), dampings, num_envs, steps, seed)
@@ -183,16 +180,14 @@ def learning_curves(objects: list[str], method: str = "pica", epochs: int = 40, 
     """Per object, ``method`` trained ``epochs`` epochs from each seed (the seeds as one program) with the paper's
     batch: the training success, progress and detachment of every epoch and seed. ``report(object, row)`` sees the
     mean over seeds of each epoch."""
-    from dragmesh2_jax.runs import make_trainer
-
     t0 = time.perf_counter()
     curves = {}
     for obj in objects:
-        trainer = make_trainer(obj, None, method, backend, epochs=epochs)
-        ts = trainer.init_runs(list(seeds))
+        program = program_of(method_spec(method, obj, {"epochs": epochs}, backend=backend))
+        ts = init_runs(program, program.task.data, seed_keys(list(seeds)))
         rows = {k: [] for k in CURVE_KEYS}
         for e in range(epochs):
-            ts, m = trainer.epoch_runs(ts)
+            ts, m = epoch_runs(program, program.task.data, ts)
             m = jax.device_get(m)
             for k in CURVE_KEYS:
                 rows[k].append([round(float(x), 4) for x in np.asarray(m[k])])

@@ -6,21 +6,48 @@ Errors in input or configuration print one line ``error: ...`` and exit with sta
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
 
+from dragmesh2_jax.assets import procedural
+from dragmesh2_jax.bench import (
+    bench_env_sweep,
+    bench_soak_sweep,
+    bench_train_sweep,
+    learning_curves,
+    learning_regressions,
+)
+from dragmesh2_jax.demo import run_demo
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.runs import (
+from dragmesh2_jax.evaluation.evaluate import markdown_table
+from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
+from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
+from dragmesh2_jax.policies.methods import METHODS
+from dragmesh2_jax.policies.networks import NetworkConfig
+from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.finetune import FINETUNES
+from dragmesh2_jax.reproduce import TABLES, ReproduceConfig, reproduce
+from dragmesh2_jax.runs.commands import (
     describe_object,
     evaluate_baseline,
     evaluate_checkpoint,
     finetune_run,
     make_trajectory,
     parse_floats,
-    train_from_args,
+    train_run,
     video_of_run,
 )
+from dragmesh2_jax.runs.session import Selection
+from dragmesh2_jax.scene import SceneConfig
+from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.trajectory.dataset import build_dataset
+
+
+def _csv(values) -> str:
+    return ",".join(f"{v:g}" for v in values)
 
 
 def _dampings(text: str, what: str = "--damping") -> list[float]:
@@ -36,8 +63,6 @@ def _err(*lines) -> None:
 
 
 def cmd_inspect(args) -> int:
-    from dragmesh2_jax.scene import SceneConfig
-
     info = describe_object(args.folder, SceneConfig(scale=args.scale, collide=args.collide), args.render)
     if args.json:
         print(json.dumps(info, indent=2))
@@ -58,8 +83,6 @@ def cmd_inspect(args) -> int:
 
 
 def cmd_objects(args) -> int:
-    from dragmesh2_jax.assets import procedural
-
     if args.objects_cmd == "synth":
         paths = procedural.synthesize_categories(args.category, args.count, args.seed, args.out)
         print(*paths, sep="\n")
@@ -83,8 +106,6 @@ def cmd_trajectory(args) -> int:
 
 
 def cmd_dataset(args) -> int:
-    from dragmesh2_jax.trajectory.dataset import build_dataset
-
     if args.procedural < 0:
         raise DragMeshError(f"--procedural must be >= 0, got {args.procedural}")
     res = build_dataset(args.objects, args.out, progress=not args.quiet, procedural=args.procedural, seed=args.seed)
@@ -113,8 +134,6 @@ def _counts(text: str, what: str) -> list[int]:
 
 
 def cmd_bench(args) -> int:
-    from dragmesh2_jax.bench import bench_env_sweep
-
     rows = bench_env_sweep(args.object, args.trajectory, [b.strip() for b in args.backend.split(",")],
                            _counts(args.num_envs, "--num-envs"), args.steps, args.mjx_steps, args.impl,
                            report=_print_env_row)
@@ -124,8 +143,6 @@ def cmd_bench(args) -> int:
 
 
 def cmd_bench_soak(args) -> int:
-    from dragmesh2_jax.bench import bench_soak_sweep
-
     rows = bench_soak_sweep(args.objects, _dampings(args.damping), args.num_envs, args.steps, args.seed,
                             args.backend, args.impl)
     for r in rows:
@@ -141,8 +158,6 @@ def cmd_bench_soak(args) -> int:
 
 
 def cmd_bench_train(args) -> int:
-    from dragmesh2_jax.bench import bench_train_sweep
-
     objects = args.object.split(",") if args.object else None
     rows = bench_train_sweep(objects, args.method, args.backend, _counts(args.num_envs, "--num-envs"),
                              _counts(args.runs, "--runs"), args.epochs, args.impl, report=_print_train_row)
@@ -152,18 +167,13 @@ def cmd_bench_train(args) -> int:
 
 
 def cmd_bench_learning(args) -> int:
-    from dragmesh2_jax.bench import learning_curves, learning_regressions
-    from dragmesh2_jax.io import atomic_write_json
-
     recorded = None
     if args.against:
         recorded = _read_json(args.against)
         objects = args.objects or list(recorded["curves"])
         method, epochs, seeds = recorded["method"], recorded["epochs"], tuple(recorded["seeds"])
     else:
-        from dragmesh2_jax.assets.procedural import HEAVY_DRAWER, packaged_object
-
-        objects = args.objects or [str(packaged_object(HEAVY_DRAWER))]
+        objects = args.objects or [str(procedural.packaged_object(procedural.HEAVY_DRAWER))]
         method, epochs = args.method, args.epochs
         seeds = tuple(int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0))
     current = learning_curves(objects, method, epochs, seeds, args.backend, report=lambda o, r: _err(
@@ -199,8 +209,6 @@ def _add_backend_args(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_train(args) -> int:
-    from dragmesh2_jax.ppo.runner import RobustSelection
-
     if args.robust_every < 0:
         raise DragMeshError("--robust-every must be >= 0")
     seeds = None
@@ -209,54 +217,60 @@ def cmd_train(args) -> int:
         if any(s != int(s) for s in seeds) or len(set(seeds)) < len(seeds):
             raise DragMeshError(f"--seeds: distinct whole numbers expected, got {args.seeds!r}")
         seeds = [int(s) for s in seeds]
-    trainer, logs = train_from_args(
+    program, logs = train_run(
         args.out, args.object, args.trajectory, args.method, args.backend, args.impl, seeds, args.resume,
         task_changes=config_changes(args, "task"), scene_changes=config_changes(args, "scene"),
-        selection=RobustSelection(every=args.robust_every), save_every=args.save_every, progress=not args.quiet,
+        network_changes=config_changes(args, "network"), selection=Selection(every=args.robust_every),
+        save_every=args.save_every, progress=not args.quiet,
         epochs=args.epochs, num_envs=args.num_envs, seed=args.seed, lr_schedule=args.lr_schedule,
         **config_changes(args, "ppo"))
     for seed, rows in logs:
         last = rows[-1] if rows else {}
-        print(f"{args.out}: {trainer.method.name} seed {seed} on {trainer.task.scene.obj.object_id} "
-              f"({trainer.task.backend.name}), {last.get('epoch', 0)} epochs, training success "
+        print(f"{args.out}: {program.method.name} seed {seed} on {program.task.scene.obj.object_id} "
+              f"({program.task.backend.name}), {last.get('epoch', 0)} epochs, training success "
               f"{last.get('success', 0):.2f}, reward {last.get('reward', 0):.2f}, {last.get('seconds', 0):.0f} s")
     return 0
 
 
 def cmd_finetune(args) -> int:
-    from dragmesh2_jax.ppo.runner import RobustSelection
-
-    parent, rows = finetune_run(args.checkpoint, args.recipe, args.out, args.backend, args.impl, args.epochs,
-                                RobustSelection(every=args.robust_every), args.save_every, not args.quiet)
+    parent, rows = finetune_run(args.checkpoint, args.recipe, args.out, _engine(args.backend), args.impl, args.epochs,
+                                Selection(every=args.robust_every), args.save_every, not args.quiet)
     last = rows[-1] if rows else {}
     print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, training success "
           f"{last.get('success', 0):.2f}, clip099 {last.get('clip099', 0):.2f}, {last.get('seconds', 0):.0f} s")
     return 0
 
 
-def cmd_evaluate(args) -> int:
-    from dragmesh2_jax.evaluation.evaluate import markdown_table
+def _protocol(args) -> EvalProtocol:
+    return dataclasses.replace(PAPER, dampings=tuple(_dampings(args.damping)), modes=tuple(_modes(args.mode)),
+                               episodes=args.episodes, seed=args.seed,
+                               starts=None if args.exact_reset else PAPER.starts)
 
-    protocol = (_dampings(args.damping), _modes(args.mode), args.episodes, args.seed, args.exact_reset,
-                args.backend, args.impl)
+
+def _engine(backend: str) -> str | None:
+    """A trained run's engine: the one it trained on unless a flag names another."""
+    return None if backend == "auto" else backend
+
+
+def cmd_evaluate(args) -> int:
+    protocol = _protocol(args)
     if bool(args.checkpoint) == bool(args.method):
         raise DragMeshError("give --checkpoint (a trained run) or --method with --object (a controller), not both")
     if args.checkpoint:
-        result = evaluate_checkpoint(args.checkpoint, *protocol)
+        result, path = evaluate_checkpoint(args.checkpoint, protocol, _engine(args.backend), args.impl)
+        _err(f"evaluation: {path}")
     else:
-        result = evaluate_baseline(args.method, args.object, args.trajectory, *protocol)
+        result = evaluate_baseline(args.method, args.object, args.trajectory, protocol, args.backend, args.impl)
     print(json.dumps(result, indent=1) if args.json else markdown_table(result))
     return 0
 
 
 def cmd_reproduce(args) -> int:
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.reproduce import ReproduceConfig, reproduce
-
     seeds = [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]
-    config = ReproduceConfig(objects=tuple(args.objects or [str(default_object())]), seeds=tuple(seeds),
+    config = ReproduceConfig(objects=tuple(args.objects or [str(procedural.default_object())]), seeds=tuple(seeds),
                              epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend,
-                             methods=tuple(args.methods.split(",")) if args.methods else None)
+                             methods=tuple(args.methods.split(",")) if args.methods else None,
+                             dampings=tuple(_dampings(args.damping)))
     for path in reproduce(args.tables, config, args.out, progress=not args.quiet, run=not args.tables_only):
         print(path.read_text())
         _err(f"table: {path}")
@@ -265,8 +279,6 @@ def cmd_reproduce(args) -> int:
 
 def cmd_demo(args) -> int:
     """The main job on the built-in default: trajectory -> PICA training -> evaluation x1/x2/x4 -> report."""
-    from dragmesh2_jax.demo import run_demo
-
     report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed,
                       progress=not args.quiet)
     print(report.read_text())
@@ -276,7 +288,7 @@ def cmd_demo(args) -> int:
 
 def cmd_video(args) -> int:
     dampings = _dampings(args.damping)
-    path, used, ck = video_of_run(args.checkpoint, dampings, args.out, args.every, args.backend, args.impl)
+    path, used, ck = video_of_run(args.checkpoint, dampings, args.out, args.every, _engine(args.backend), args.impl)
     print(f"{path}: det policy of {ck} at damping {', '.join(f'x{d:g}' for d in dampings)} ({used} renderer)")
     return 0
 
@@ -286,12 +298,7 @@ def cmd_video(args) -> int:
 CONFIG_PREFIXES = ("task", "scene", "ppo")
 
 
-def _config_classes() -> dict:
-    from dragmesh2_jax.ppo.config import PPOConfig
-    from dragmesh2_jax.scene import SceneConfig
-    from dragmesh2_jax.task.config import TaskConfig
-
-    return {"task": TaskConfig, "scene": SceneConfig, "ppo": PPOConfig}
+CONFIG_CLASSES = {"task": TaskConfig, "scene": SceneConfig, "ppo": PPOConfig, "network": NetworkConfig}
 
 
 def _field_parser(tp):
@@ -321,11 +328,9 @@ def _bool(s: str) -> bool:
 
 
 def add_config_args(p: argparse.ArgumentParser, skip: tuple[str, ...] = ()) -> None:
-    """``--task.alpha 0.03``, ``--ppo.num-envs 8``, ``--scene.damping 25``: every scalar field of the task,
-    scene and PPO configs (defaults: the method preset's)."""
-    import dataclasses
-
-    for prefix, cls in _config_classes().items():
+    """``--task.alpha 0.03``, ``--ppo.num-envs 8``, ``--scene.damping 25``, ``--network.hist-dim 64``: every
+    scalar and tuple field of the task, scene, PPO and network configs (defaults: the method preset's)."""
+    for prefix, cls in CONFIG_CLASSES.items():
         g = p.add_argument_group(f"{prefix} config ({cls.__name__}; default: the preset's)")
         for f in dataclasses.fields(cls):
             parse = _field_parser(f.type)
@@ -349,8 +354,6 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from dragmesh2_jax.ppo.runner import RobustSelection
-
     p = _Parser(prog="dragmesh2", description="DragMesh-2 in JAX/MuJoCo-MJX")
     sub = p.add_subparsers(dest="cmd", required=True)
 
@@ -434,9 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
     pbl.set_defaults(func=cmd_bench_learning)
 
     ptr = sub.add_parser("train", help="train a policy with PPO")
-    ptr.add_argument("--method", default="pica", help="pica | state_only | flat_history | gru | transformer | "
-                                                       "gla_only | pica_flat | pica_force | pica_priv | pica_d14 | "
-                                                       "pica_load | pica_grip")
+    ptr.add_argument("--method", default="pica", help=" | ".join(METHODS))
     ptr.add_argument("--object", help="object folder")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
     ptr.add_argument("--out", required=True, help="run folder")
@@ -448,22 +449,22 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"])
     ptr.add_argument("--save-every", type=int, default=10)
     ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
-    ptr.add_argument("--robust-every", type=int, default=RobustSelection.every,
+    ptr.add_argument("--robust-every", type=int, default=Selection.every,
                      help="epochs between robustness evaluations that select best_robust (0: off)")
     ptr.add_argument("--quiet", action="store_true")
     _add_backend_args(ptr)
+    # the engine and the run's own flags stand above; the effector is the parallel-jaw primitive's, not a policy's
     add_config_args(ptr, skip=("task.backend", "task.impl", "ppo.epochs", "ppo.num_envs", "ppo.seed",
-                               "ppo.lr_schedule"))
+                               "ppo.lr_schedule", "scene.effector"))
     ptr.set_defaults(func=cmd_train)
 
     pft = sub.add_parser("finetune", help="continue a trained run with a diagnostic preset (ARAM, Reconfig, ...)")
     pft.add_argument("--checkpoint", required=True, help="a run's checkpoint, or the run folder (best_robust)")
-    pft.add_argument("--recipe", required=True, help="continued | aram | reconfig | both | both_jointaware | "
-                                                      "damp_1_4 | damp_1_2.5 | damp_2_4")
+    pft.add_argument("--recipe", required=True, help=" | ".join(FINETUNES))
     pft.add_argument("--out", required=True, help="run folder of the fine-tune")
     pft.add_argument("--epochs", type=int, help="epochs to add (default: the preset's, 50)")
     pft.add_argument("--save-every", type=int, default=10)
-    pft.add_argument("--robust-every", type=int, default=RobustSelection.every)
+    pft.add_argument("--robust-every", type=int, default=Selection.every)
     pft.add_argument("--quiet", action="store_true")
     _add_backend_args(pft)
     pft.set_defaults(func=cmd_finetune)
@@ -477,10 +478,10 @@ def build_parser() -> argparse.ArgumentParser:
                                       "gripper primitive)")
     pev.add_argument("--object", help="object folder (with --method)")
     pev.add_argument("--trajectory", help="trajectory file (with --method; default: generate one)")
-    pev.add_argument("--damping", default="1,2,4")
-    pev.add_argument("--mode", default="det,stoch")
-    pev.add_argument("--episodes", type=int, default=20)
-    pev.add_argument("--seed", type=int, default=42)
+    pev.add_argument("--damping", default=_csv(PAPER.dampings))
+    pev.add_argument("--mode", default=",".join(PAPER.modes))
+    pev.add_argument("--episodes", type=int, default=PAPER.episodes)
+    pev.add_argument("--seed", type=int, default=PAPER.seed)
     pev.add_argument("--exact-reset", action="store_true",
                      help="the paper's noise-free start (default: perturbed expert grasps, so cells are rates)")
     pev.add_argument("--json", action="store_true")
@@ -489,8 +490,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     prp = sub.add_parser("reproduce", help="the paper's tables end to end: training, fine-tunes, evaluations, "
                                            "markdown, Figure 2 (resumable)")
-    prp.add_argument("tables", nargs="+", choices=["main", "ablation", "train-length", "ood", "continued",
-                                                    "damping-range", "all"])
+    prp.add_argument("tables", nargs="+", choices=[*TABLES, "all"])
     prp.add_argument("--objects", nargs="+", help="object folders (default: the packaged drawer); the first is the "
                                                   "diagnostic object of the appendix tables")
     prp.add_argument("--seeds", default="0,1,2")
@@ -498,7 +498,9 @@ def build_parser() -> argparse.ArgumentParser:
                                        "(any method preset or controller)")
     prp.add_argument("--epochs", type=int, default=150, help="base budget; the appendix epochs scale with it")
     prp.add_argument("--num-envs", type=int)
-    prp.add_argument("--episodes", type=int, default=20, help="episodes per cell")
+    prp.add_argument("--episodes", type=int, default=PAPER.episodes, help="episodes per cell")
+    prp.add_argument("--damping", default=_csv(PAPER.dampings), help="evaluation damping multipliers (the paper's "
+                                                                    "by default; 8 adds an OOD column)")
     prp.add_argument("--out", default="out/reproduce")
     prp.add_argument("--backend", default="auto")
     prp.add_argument("--quiet", action="store_true")
@@ -518,7 +520,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     pv = sub.add_parser("video", help="a trained policy's rollouts at several dampings, side by side")
     pv.add_argument("--checkpoint", required=True, help="run folder (best_robust, else final) or checkpoint file")
-    pv.add_argument("--damping", default="1,2,4")
+    pv.add_argument("--damping", default=_csv(PAPER.dampings))
     pv.add_argument("--out", default="policy.mp4", help=".mp4 (where mediapy and ffmpeg exist, else GIF) or .gif")
     pv.add_argument("--every", type=int, default=6, help="control steps between frames")
     _add_backend_args(pv)
@@ -532,8 +534,6 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as e:  # --help (0) or a usage error (2, already reported)
         return int(e.code or 0)
     if "mjx" in str(getattr(args, "backend", "")):  # before anything starts JAX (jaxlib < 0.11 CPU deadlock)
-        from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
-
         avoid_lapack_deadlock()
     try:
         return int(args.func(args) or 0)

@@ -5,14 +5,23 @@ success-vs-damping plot, the expert grasp and a video of the policy at each damp
 from __future__ import annotations
 
 import io
+import sys
 import time
 from pathlib import Path
 
-from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.io import atomic_write_bytes, atomic_write_json, atomic_write_text
+import jax
+from matplotlib.figure import Figure
 
-DEMO_DAMPINGS = [1.0, 2.0, 4.0]
-DEMO_EPISODES = 20  # per evaluation cell
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.evaluation.evaluate import markdown_table
+from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
+from dragmesh2_jax.io import atomic_write_bytes, atomic_write_text
+from dragmesh2_jax.render import render_png, render_policy_video, set_pose
+from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
+from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.session import start_or_resume
+from dragmesh2_jax.runs.spec import method_spec
+
 CPU_EPOCHS, GPU_EPOCHS = 60, 150  # a small preset on a CPU, the paper's budget on an accelerator
 VIDEO_EVERY = 30  # control steps between video frames (0.5 s)
 
@@ -20,17 +29,6 @@ VIDEO_EVERY = 30  # control steps between video frames (0.5 s)
 def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | None = None, epochs: int | None = None,
              backend: str = "auto", seed: int = 0, progress: bool = True) -> Path:
     """Run the demo into ``out``; returns the report's path."""
-    import sys
-
-    import jax
-
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
-    from dragmesh2_jax.ppo.checkpoint import load_checkpoint
-    from dragmesh2_jax.ppo.runner import train
-    from dragmesh2_jax.render import render_policy_video
-    from dragmesh2_jax.runs import eval_task, make_trainer, resolve_checkpoint
-
     gpu = jax.default_backend() != "cpu"
     epochs = epochs or (GPU_EPOCHS if gpu else CPU_EPOCHS)
     out = Path(out)
@@ -39,34 +37,32 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
           f"x1/x2/x4; {'GPU: full preset' if gpu else 'CPU: small preset, about 3-5 minutes on 2 cores'}",
           file=sys.stderr)
     t0 = time.time()
-    trainer = make_trainer(folder, trajectory, "pica", backend, "jax", epochs=epochs, seed=seed)
-    traj = trainer.task.traj
-    if (out / "log.jsonl").exists():
-        raise DragMeshError(f"{out}: already holds a demo run (choose another --out)")
-    ts, rows = train(trainer, out, folder, progress=progress, save_every=max(epochs // 3, 1))
-    ck = resolve_checkpoint(out)
-    ts = load_checkpoint(ts, ck)
-    task = eval_task(trainer.task)
-    result = evaluate(task, trainer.controller(ts), DEMO_DAMPINGS, ["det", "stoch"], episodes=DEMO_EPISODES, seed=seed)
-    result["checkpoint"] = str(ck)
-    atomic_write_json(out / f"eval_{ck.stem}.json", result)
+    run = RunDir(out)
+    spec = method_spec("pica", folder, {"epochs": epochs, "seed": seed}, backend=backend)
+    _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=False, save_every=max(epochs // 3, 1),
+                                    progress=progress)
+    program, ts, _, _ = load_run(out)  # the checkpoint selected by robustness
+    traj = program.task.traj
+    result, _ = evaluate_checkpoint(str(out), PAPER)
+    ck = Path(result["checkpoint"])
     plot_success(result, out / "success_vs_damping.png")
-    grasp_picture(trainer.task, out / "grasp.png")
-    video, _ = render_policy_video(eval_task(trainer.task, exact_reset=True), trainer.make_policy(True),
-                                   trainer.policy_params(ts), DEMO_DAMPINGS, out / "policy.gif", every=VIDEO_EVERY)
+    grasp_picture(program.task, out / "grasp.png")
+    c = program.controller(ts)
+    video, _ = render_policy_video(EvalProtocol(starts=None).task(program.task), c.make_policy(True), c.params,
+                                   list(PAPER.dampings), out / "policy.gif", every=VIDEO_EVERY)
     q = traj.header.get("quality", {})
-    obj = trainer.task.scene.obj
+    obj = program.task.scene.obj
     report = [
         f"# DragMesh-2 demo: PICA on {obj.object_id} ({obj.category})", "",
         f"- object: `{folder}`; target `{obj.target.joint.name}` "
-        f"({'revolute' if trainer.task.scene.ids.target_is_revolute else 'prismatic'})",
+        f"({'revolute' if program.task.scene.ids.target_is_revolute else 'prismatic'})",
         f"- reference trajectory: {len(traj.frames)} frames, quality gate {'passed' if q.get('passed') else 'n/a'}; "
         f"q_start {traj.q_start:.4f}, q_done {traj.q_done:.4f}, q_goal {traj.q_goal:.4f}",
-        f"- training: {epochs} epochs x {trainer.config.num_envs} envs x {trainer.config.rollout_len} steps on the "
-        f"{trainer.task.backend.name} backend; final training success {rows[-1]['success']:.2f}, "
+        f"- training: {epochs} epochs x {program.config.num_envs} envs x {program.config.rollout_len} steps on the "
+        f"{program.task.backend.name} backend; final training success {rows[-1]['success']:.2f}, "
         f"{rows[-1]['seconds']:.0f} s",
         f"- wall time (all stages): {time.time() - t0:.0f} s on {jax.default_backend()}", "",
-        f"## Evaluation of `{ck.name}` ({DEMO_EPISODES} episodes per cell, each from a perturbed expert grasp; 95% "
+        f"## Evaluation of `{ck.name}` ({PAPER.episodes} episodes per cell, each from a perturbed expert grasp; 95% "
         "Wilson intervals)", "", markdown_table(result), "",
         "![success vs damping](success_vs_damping.png)", "", "The expert grasp state every episode starts from:",
         "", "![expert grasp](grasp.png)", "",
@@ -78,8 +74,6 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
 
 
 def grasp_picture(task, path: Path) -> str:
-    from dragmesh2_jax.render import render_png, set_pose
-
     scene, traj = task.scene, task.traj
     frame = traj.frames[traj.drag_start]
     d = set_pose(scene, scene.initial_data(), frame.hand_q, frame.joint_positions[traj.target_index])
@@ -87,12 +81,8 @@ def grasp_picture(task, path: Path) -> str:
 
 
 def plot_success(result: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(5, 3.5))
+    fig = Figure(figsize=(5, 3.5))
+    ax = fig.subplots()
     for mode in ("det", "stoch"):
         rs = [r for r in result["cells"] if r["mode"] == mode]
         ax.plot([r["damping"] for r in rs], [r["success_rate"] for r in rs], "o-", label=mode)
@@ -105,5 +95,4 @@ def plot_success(result: dict, path: Path) -> None:
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=120)
-    plt.close(fig)
     atomic_write_bytes(path, buf.getvalue())

@@ -6,12 +6,20 @@ from __future__ import annotations
 import functools
 import io
 import os
+import warnings
 from pathlib import Path
 
+import matplotlib.image
 import mujoco
 import numpy as np
+from matplotlib.figure import Figure
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+from PIL import Image, ImageDraw
+from scipy.spatial import ConvexHull
 
+from dragmesh2_jax.evaluation import rollout as rollouts
 from dragmesh2_jax.io import atomic_write_bytes
+from dragmesh2_jax.scene import SceneConfig, build_scene
 
 
 def _look_at_camera(model: mujoco.MjModel, target: np.ndarray) -> mujoco.MjvCamera:
@@ -23,13 +31,6 @@ def _look_at_camera(model: mujoco.MjModel, target: np.ndarray) -> mujoco.MjvCame
 
 
 def _render_gl(model, data, target, width, height) -> bytes:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import warnings
-
-    import matplotlib.pyplot as plt
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         r = mujoco.Renderer(model, height, width)
@@ -37,14 +38,12 @@ def _render_gl(model, data, target, width, height) -> bytes:
         r.update_scene(data, camera=_look_at_camera(model, target))
         img = r.render()
     buf = io.BytesIO()
-    plt.imsave(buf, img, format="png")
+    matplotlib.image.imsave(buf, img, format="png")
     return buf.getvalue()
 
 
 def _geom_polys(model, data, g):
     """Faces (list of Nx3 arrays) of geom ``g`` in world coordinates, or a capsule segment."""
-    from scipy.spatial import ConvexHull
-
     pos, R, size, typ = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3), model.geom_size[g], model.geom_type[g]
     if typ == mujoco.mjtGeom.mjGEOM_MESH:
         m = model.geom_dataid[g]
@@ -66,13 +65,7 @@ def _geom_polys(model, data, g):
 
 
 def _render_matplotlib(model, data, target, width, height) -> bytes:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-    fig = plt.figure(figsize=(width / 100, height / 100), dpi=100)
+    fig = Figure(figsize=(width / 100, height / 100), dpi=100)  # no pyplot: no display backend
     ax = fig.add_subplot(111, projection="3d")
     ax.computed_zorder = False  # draw in our order: object first, hand (contype 1) on top
     for g in sorted(range(model.ngeom), key=lambda g: model.geom_contype[g] == 1):
@@ -98,7 +91,6 @@ def _render_matplotlib(model, data, target, width, height) -> bytes:
     buf = io.BytesIO()
     fig.tight_layout()
     fig.savefig(buf, format="png")
-    plt.close(fig)
     return buf.getvalue()
 
 
@@ -109,8 +101,6 @@ def gl_available() -> bool:
     if not (os.environ.get("MUJOCO_GL") or os.environ.get("DISPLAY")):
         return False
     try:
-        import warnings
-
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             r = mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 16, 16)
@@ -152,8 +142,6 @@ def set_pose(scene, data: mujoco.MjData, hand_q, obj_q) -> mujoco.MjData:
 
 def _frame(scene, data, width: int, height: int):
     """(PIL image, renderer) of ``data`` looking at the handle."""
-    from PIL import Image
-
     png, used = render_image(scene.model, data, scene.handle.centre, width, height)
     return Image.open(io.BytesIO(png)).convert("RGB"), used
 
@@ -166,8 +154,6 @@ def _write_gif(frames, path: str | Path, frame_ms: int) -> None:
 
 def render_trajectory_gif(obj, traj, path: str | Path, every: int = 15, width: int = 480, height: int = 360) -> str:
     """A GIF of a trajectory replayed kinematically (recorded hand q and object joints) every ``every`` frames."""
-    from dragmesh2_jax.scene import SceneConfig, build_scene
-
     sc = build_scene(obj, SceneConfig(scale=traj.header.get("scene", {}).get("scale", 0.4)))
     d = sc.initial_data()
     images, used = [], "matplotlib"
@@ -178,38 +164,6 @@ def render_trajectory_gif(obj, traj, path: str | Path, every: int = 15, width: i
     return used
 
 
-def policy_rollouts(task, policy, params, dampings: list[float], seed: int = 0) -> list[dict]:
-    """One deterministic-start episode of ``policy`` per damping multiplier (all worlds in one rollout): per
-    damping the hand q (T, 51) and target-joint q (T,) of every step until the episode ended, and how it ended."""
-    import jax
-    import jax.numpy as jnp
-
-    n, T = len(dampings), task.config.episode_length
-    reset, step = jax.vmap(task.reset), jax.vmap(task.step)
-
-    @jax.jit
-    def run(key):
-        state = reset(jax.random.split(key, n), jnp.asarray(dampings, jnp.float32))
-
-        def body(carry, k):
-            s = carry
-            k0 = jax.vmap(task.kinematics)(s.physics)
-            a = policy(params, s.obs, k)
-            s = step(s, a)
-            return s, (k0.hand_q, k0.obj_q, s.done, s.metrics["success"])
-
-        _, out = jax.lax.scan(body, state, jax.random.split(key, T))
-        return out
-
-    hand_q, obj_q, done, success = (np.asarray(x) for x in jax.device_get(run(jax.random.PRNGKey(seed))))
-    rows = []
-    for i, d in enumerate(dampings):
-        end = int(np.argmax(done[:, i])) + 1 if done[:, i].any() else T
-        rows.append({"damping": d, "hand_q": hand_q[:end, i], "obj_q": obj_q[:end, i],
-                     "success": bool(success[end - 1, i]), "steps": end})
-    return rows
-
-
 def render_policy_video(task, policy, params, dampings: list[float], path: str | Path, every: int = 6,
                         width: int = 360, height: int = 270, seed: int = 0) -> tuple[str, str]:
     """Rollouts of ``policy`` at each damping side by side, one panel per damping (labelled with the multiplier
@@ -217,9 +171,8 @@ def render_policy_video(task, policy, params, dampings: list[float], path: str |
     (the state before its last step). MP4 where ``mediapy`` and ffmpeg are available, else GIF (by ``path``'s
     suffix: ``.mp4`` falls back to ``.gif``). Returns the path written and the renderer: ``"mujoco"`` (GL) or
     ``"matplotlib"``."""
-    from PIL import Image, ImageDraw
-
-    rows = policy_rollouts(task, policy, params, dampings, seed)
+    rows = rollouts.frames(rollouts.rollout(task, policy, params, dampings, 1, seed, steps=task.config.episode_length),
+                           dampings)
     sc = task.scene
     d = sc.initial_data()
     T = max(r["steps"] for r in rows)
@@ -240,7 +193,7 @@ def render_policy_video(task, policy, params, dampings: list[float], path: str |
     path = Path(path)
     if path.suffix == ".mp4":
         try:
-            import mediapy
+            import mediapy  # optional: MP4 where it and ffmpeg are installed
 
             mediapy.write_video(str(path), [np.asarray(f) for f in frames], fps=1.0 / frame_s)
             return str(path), used

@@ -30,18 +30,29 @@ from __future__ import annotations
 import dataclasses
 import json
 import shutil
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW
+from dragmesh2_jax.baselines.tracking import TRACKING
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
+from dragmesh2_jax.evaluation.protocol import MODES, PAPER_DAMPINGS, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+from dragmesh2_jax.policies.methods import METHODS
+from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.runs.commands import baseline_controllers, finetune_run, load_run
+from dragmesh2_jax.runs.rundir import RunDir, epoch_name
+from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.spec import method_spec
 
-DAMPINGS = (1.0, 2.0, 4.0)  # paper §4: nominal, mild and strong (OOD) contact-load shift
-MODES = ("det", "stoch")
 PAPER_BASE_EPOCHS = 150  # paper Table 11
 MAIN_METHODS = ("state_only", "flat_history", "gru", "transformer", "pica")  # paper Table 2, learned rows
 ABLATION_METHODS = ("gla_only", "pica_flat", "pica")  # paper Table 3
@@ -89,11 +100,9 @@ class ReproduceConfig:
     backend: str = "auto"
     eval_seed: int = 42
     methods: tuple[str, ...] | None = None  # the rows of the main and ablation tables; None: the paper's
+    dampings: tuple[float, ...] = PAPER_DAMPINGS  # the evaluation cells (x8 beyond the paper: an OOD column)
 
     def __post_init__(self):
-        from dragmesh2_jax.policies.methods import METHODS
-        from dragmesh2_jax.runs import baseline_controllers
-
         if not self.objects:
             raise DragMeshError("reproduce needs at least one object")
         known = [*baseline_controllers(), *METHODS]
@@ -105,6 +114,16 @@ class ReproduceConfig:
             raise DragMeshError(f"reproduce needs distinct seeds, got {self.seeds}")
         if self.epochs < 1 or self.episodes < 1 or (self.num_envs is not None and self.num_envs < 1):
             raise DragMeshError("epochs, episodes and num_envs must be >= 1")
+
+    @property
+    def protocol(self) -> EvalProtocol:
+        """How a trained run is evaluated (det and stoch)."""
+        return EvalProtocol(dampings=self.dampings, episodes=self.episodes, seed=self.eval_seed)
+
+    @property
+    def controller_protocol(self) -> EvalProtocol:
+        """How a controller is evaluated (deterministic: det only, as the paper)."""
+        return dataclasses.replace(self.protocol, modes=("det",))
 
     def scaled(self, paper_epochs: int) -> int:
         """The paper's epoch count at this budget (``paper_epochs`` at 150 base epochs)."""
@@ -129,14 +148,14 @@ class Run:
     def name(self) -> str:
         return self.method if self.parent is None else f"{self.parent.name}+{self.recipe}"
 
-    def folder(self, out: Path) -> Path:
-        return out / "runs" / Path(self.object).name / f"{self.name}_s{self.seed}"
+    def folder(self, out: Path) -> RunDir:
+        return RunDir(out / "runs" / Path(self.object).name / f"{self.name}_s{self.seed}")
 
 
 @dataclass(frozen=True)
 class Eval:
-    """An evaluation: of a run's checkpoint (``best_robust``, or ``final`` right after the run reached
-    ``run.epochs``), or of a controller ``controller`` on ``object``."""
+    """An evaluation: of a run's checkpoint (``best_robust``, or ``final``: the run's checkpoint at ``run.epochs``),
+    or of a controller ``controller`` on ``object``."""
 
     object: str
     run: Run | None = None
@@ -151,11 +170,15 @@ class Eval:
             return self.controller
         return self.run.name if self.checkpoint == "best_robust" else f"{self.run.name}@{self.run.epochs}"
 
-    def path(self, out: Path) -> Path:
+    def checkpoint_path(self, out: Path) -> Path:
+        run = self.run.folder(out)
+        return run.checkpoint(self.checkpoint if self.checkpoint == "best_robust" else epoch_name(self.run.epochs))
+
+    def path(self, out: Path, c: ReproduceConfig) -> Path:
         if self.run is None:
-            return out / "controllers" / Path(self.object).name / f"{self.controller}.json"
-        tag = self.checkpoint if self.checkpoint == "best_robust" else f"e{self.run.epochs:04d}"
-        return self.run.folder(out) / f"eval_{tag}.json"
+            name = f"{self.controller}__{c.controller_protocol.name}.json"
+            return out / "controllers" / Path(self.object).name / name
+        return self.run.folder(out).evaluation_path(self.checkpoint_path(out), c.protocol)
 
 
 def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
@@ -164,10 +187,6 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
         raise DragMeshError(f"unknown table {table!r} (choose from {', '.join(TABLES)}, all)")
     steps: list[Run | Eval] = []
     if table in ("main", "ablation"):
-        from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW
-        from dragmesh2_jax.baselines.tracking import TRACKING
-        from dragmesh2_jax.runs import baseline_controllers
-
         known = baseline_controllers()
         rows = c.methods or ((TRACKING, PARALLEL_JAW, *MAIN_METHODS) if table == "main" else ABLATION_METHODS)
         controllers = [n for n in rows if n in known]
@@ -216,94 +235,67 @@ def stage_epochs(table: str, c: ReproduceConfig) -> dict[str, list[int]]:
 
 
 # ---------------------------------------------------------------------------------------- running it
-def trained_epochs(folder: Path) -> int:
-    """Epochs a run folder has finished (its log), 0 when it has no final checkpoint yet."""
-    from dragmesh2_jax.ppo.checkpoint import find_checkpoint
-
-    log = folder / "log.jsonl"
-    if find_checkpoint(folder, "final") is None or not log.is_file():
-        return 0
-    rows = [json.loads(x) for x in log.read_text().splitlines() if x.strip()]
-    return int(rows[-1]["epoch"]) if rows else 0
-
-
 def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
-    from dragmesh2_jax.ppo.checkpoint import find_checkpoint
-    from dragmesh2_jax.ppo.runner import RobustSelection, latest_checkpoint, train
-    from dragmesh2_jax.runs import make_finetune, make_trainer, trainer_from_record
-
     folder = run.folder(out)
-    if trained_epochs(folder) >= run.epochs:
+    if folder.trained_epochs() >= run.epochs:
         return
     save_every = max(1, c.scaled(FINETUNE_EPOCHS) // 2)
     # main/ablation evaluate a base run's best_robust checkpoint; the appendix tables evaluate named epochs
-    selection = RobustSelection() if run.parent is None else RobustSelection(every=0)
-    resumable = latest_checkpoint(folder) is not None or find_checkpoint(folder, "final") is not None
-    if not resumable and folder.exists():
-        shutil.rmtree(folder)  # stopped before its first checkpoint: nothing to resume from, so it starts again
-    if resumable:
-        trainer = trainer_from_record(folder, c.backend, epochs=run.epochs)  # the next stage, or an interrupted one
-        train(trainer, folder, _record_object(folder), resume=True, save_every=save_every, progress=False,
-              selection=selection)
-    elif run.parent is None:
-        trainer = make_trainer(run.object, None, run.method, c.backend, epochs=run.epochs, num_envs=c.num_envs,
-                               seed=run.seed)
-        train(trainer, folder, run.object, save_every=save_every, progress=False,
-              selection=selection)
+    selection = Selection() if run.parent is None else Selection(every=0)
+    kwargs = {"save_every": save_every, "selection": selection, "progress": False}
+    if run.parent is None:
+        spec = method_spec(run.method, run.object, {"epochs": run.epochs, "num_envs": c.num_envs, "seed": run.seed},
+                           backend=c.backend)
+        start_or_resume(spec, [folder], epochs=run.epochs, **kwargs)  # new, interrupted or extended
+    elif folder.exists() and folder.epoch_checkpoints():
+        start_or_resume(None, [folder], resume=True, epochs=run.epochs, **kwargs)  # the next stage
     else:
-        parent = run.parent.folder(out)
-        trainer, start, ck = make_finetune(find_checkpoint(parent, "final"), run.recipe, c.backend,
-                                           epochs=run.epochs - run.parent.epochs)
-        train(trainer, folder, run.object, save_every=save_every, progress=False, selection=selection, start=start,
-              meta={"finetune": run.recipe, "parent": str(ck.resolve())})
-
-
-def _record_object(folder: Path) -> str:
-    from dragmesh2_jax.runs import run_meta
-
-    return run_meta(folder)["object"]
+        if folder.path.exists():
+            shutil.rmtree(folder.path)  # stopped before its first checkpoint: nothing to resume from
+        parent = run.parent.folder(out).checkpoint(epoch_name(run.parent.epochs))
+        finetune_run(str(parent), run.recipe, str(folder.path), None if c.backend == "auto" else c.backend,
+                     epochs=run.epochs - run.parent.epochs, **kwargs)
 
 
 def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
-    from dragmesh2_jax.evaluation.evaluate import evaluate
-    from dragmesh2_jax.ppo.checkpoint import find_checkpoint
-    from dragmesh2_jax.runs import baseline_controllers, eval_task, load_run, load_task
-
     if ev.run is None:
-        task, controller = baseline_controllers()[ev.controller](eval_task(load_task(ev.object, None, c.backend)))
-        result = evaluate(task, controller, list(DAMPINGS), ["det"], c.episodes, seed=c.eval_seed)
-    else:
-        folder = ev.run.folder(out)
-        if ev.checkpoint == "final" and trained_epochs(folder) != ev.run.epochs:
-            raise DragMeshError(f"{folder}: trained to epoch {trained_epochs(folder)}, not {ev.run.epochs} (the "
-                                "evaluation of a stage runs right after it)")
-        trainer, ts, _, ck = load_run(find_checkpoint(folder, ev.checkpoint) or folder, c.backend)
-        result = evaluate(eval_task(trainer.task), trainer.controller(ts), list(DAMPINGS), list(MODES), c.episodes,
-                          seed=c.eval_seed)
-        result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=ev.run.epochs)
-    result.update(label=ev.label, seed=ev.seed, object=Path(ev.object).name)
-    atomic_write_json(ev.path(out), result)
+        p = c.controller_protocol
+        task, controller = baseline_controllers()[ev.controller](p.task(load_task(ev.object, None, c.backend)))
+        result = evaluate(task, controller, p)
+        result.update(label=ev.label, seed=ev.seed, object=Path(ev.object).name)
+        atomic_write_json(ev.path(out, c), result)
+        return result
+    folder = ev.run.folder(out)
+    if ev.checkpoint != "best_robust" and folder.trained_epochs() < ev.run.epochs:
+        raise DragMeshError(f"{folder.path}: trained to epoch {folder.trained_epochs()}, not {ev.run.epochs} (the "
+                            "evaluation of a stage runs right after it)")
+    program, ts, _, ck = load_run(ev.checkpoint_path(out), c.backend)
+    result = evaluate(c.protocol.task(program.task), program.controller(ts), c.protocol)
+    result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=ev.run.epochs, label=ev.label, seed=ev.seed,
+                  object=Path(ev.object).name)
+    folder.write_evaluation(ck, c.protocol, result, markdown_table(result))
     return result
 
 
 def _cost(step: Run | Eval, c: ReproduceConfig) -> float:
     """Relative cost for the progress estimate: an epoch of training ~ one evaluation cell."""
     if isinstance(step, Eval):
-        return len(DAMPINGS) * (1 if step.run is None else len(MODES))
+        return len(c.dampings) * (1 if step.run is None else len(MODES))
     return float(step.epochs - (step.parent.epochs if step.parent else 0))
 
 
 def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bool = True,
             on_step: Callable[[Run | Eval], None] | None = None) -> list[dict]:
-    """Run every step not yet done; returns every evaluation's result (read back when it was done before)."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
+    """Run every step not yet done; returns every evaluation's result (read back when it was done before). On a
+    terminal a progress bar covers the plan; elsewhere (a log) each finished step is one line with the elapsed and
+    estimated time left."""
     results = []
-    current = {s: r for s in steps if isinstance(s, Eval) and (r := _current(s, out)) is not None}
-    todo = [s for s in steps if s not in current and not _done(s, out)]
-    total = sum(_cost(s, c) for s in todo)
+    current = {s: r for s in steps if isinstance(s, Eval) and (r := _current(s, c, out)) is not None}
+    todo = [s for s in steps if s not in current and not _done(s, c, out)]
+    total, spent, t0 = sum(_cost(s, c) for s in todo), 0.0, time.time()
+    lines = progress and not sys.stderr.isatty()
     with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), TextColumn("left"),
-                  TimeRemainingColumn(), disable=not progress) as bar:
+                  TimeRemainingColumn(), disable=not progress or lines) as bar:
         task = bar.add_task("reproduce", total=max(total, 1.0))
         for step in steps:
             if step in current:
@@ -319,26 +311,34 @@ def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bo
             else:
                 results.append(_evaluate(step, c, out))
             bar.advance(task, _cost(step, c))
+            spent += _cost(step, c)
+            if lines:
+                elapsed = time.time() - t0
+                print(f"reproduce: {Path(step.object).name}: {what} done; elapsed {elapsed:.0f} s, left "
+                      f"~{elapsed / spent * (total - spent):.0f} s", file=sys.stderr, flush=True)
             if on_step:
                 on_step(step)
     return results
 
 
-def _current(ev: Eval, out: Path) -> dict | None:
+def _current(ev: Eval, c: ReproduceConfig, out: Path) -> dict | None:
     """An evaluation's result when written, and of a run trained to the plan's epochs (a run extended to a
     larger budget is evaluated again); None otherwise."""
-    path = ev.path(out)
+    path = ev.path(out, c)
     if not path.is_file():
         return None
-    result = json.loads(path.read_text())
+    try:
+        result = json.loads(path.read_text())
+    except json.JSONDecodeError:
+        return None  # damaged: evaluated again
     return result if ev.run is None or result.get("run_epochs") == ev.run.epochs else None
 
 
-def _done(step: Run | Eval, out: Path) -> bool:
+def _done(step: Run | Eval, c: ReproduceConfig, out: Path) -> bool:
     """A run is done at its epochs; an evaluation when its result is current."""
     if isinstance(step, Eval):
-        return _current(step, out) is not None
-    return trained_epochs(step.folder(out)) >= step.epochs
+        return _current(step, c, out) is not None
+    return step.folder(out).trained_epochs() >= step.epochs
 
 
 # ------------------------------------------------------------------------------------------ the tables
@@ -355,29 +355,30 @@ def _fmt(xs: list[float]) -> str:
     return f"{np.mean(xs):.2f}±{np.std(xs, ddof=1) / np.sqrt(len(xs)):.2f}"
 
 
-def _paper(label: str, obj: str, i: int) -> str:
+def _paper(label: str, obj: str, damping: float) -> str:
     cell = PAPER_CELLS.get(label, {}).get(obj)
-    if cell is None:
+    if cell is None or damping not in PAPER_DAMPINGS:
         return ""
-    det, stoch = cell[i]
+    det, stoch = cell[PAPER_DAMPINGS.index(damping)]
     return f" ({det:.2f}" + ("" if stoch is None else f"/{stoch:.2f}") + ")"
 
 
-def comparison_table(results: list[dict], labels: list[str], objects: list[str]) -> str:
+def comparison_table(results: list[dict], labels: list[str], objects: list[str],
+                     dampings: tuple[float, ...] = PAPER_DAMPINGS) -> str:
     """Paper Table 2/3 layout: method x damping rows, det/stoch per object and the average over objects; the
     paper's det/stoch in parentheses for the objects it shares with ours."""
     names = [Path(o).name for o in objects]
     lines = ["| method | damp | " + " | ".join(names) + " | Avg |", "|---|---|" + "---|" * (len(names) + 1)]
     for label in labels:
-        for i, d in enumerate(DAMPINGS):
+        for d in dampings:
             row = []
             for o in names:
                 det, stoch = _cell(results, label, o, d, "det"), _cell(results, label, o, d, "stoch")
-                row.append(_fmt(det) + ("" if not stoch else " / " + _fmt(stoch)) + _paper(label, o, i))
+                row.append(_fmt(det) + ("" if not stoch else " / " + _fmt(stoch)) + _paper(label, o, d))
             avg = [float(np.mean(_per_seed(results, label, names, d, m))) for m in MODES
                    if _per_seed(results, label, names, d, m)]
             row.append(" / ".join(_fmt(_per_seed(results, label, names, d, m)) for m in MODES
-                                  if _per_seed(results, label, names, d, m)) + _paper(label, "Avg", i) if avg else "-")
+                                  if _per_seed(results, label, names, d, m)) + _paper(label, "Avg", d) if avg else "-")
             lines.append(f"| {label} | x{d:g} | " + " | ".join(row) + " |")
     return "\n".join(lines)
 
@@ -405,26 +406,23 @@ def diagnostic_table(results: list[dict], rows: list[tuple[str, str]], columns: 
     return "\n".join(lines)
 
 
-def figure2(results: list[dict], labels: list[str], objects: list[str], path: Path) -> Path:
+def figure2(results: list[dict], labels: list[str], objects: list[str], path: Path,
+            dampings: tuple[float, ...] = PAPER_DAMPINGS) -> Path:
     """Success vs damping grouped by method (mean over objects, error bars: SE over seeds), det and stoch."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     names = [Path(o).name for o in objects]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharey=True)
+    fig = Figure(figsize=(11, 3.8))
+    axes = fig.subplots(1, 2, sharey=True)
     width = 0.8 / max(len(labels), 1)
     for ax, mode in zip(axes, MODES, strict=True):
         for k, label in enumerate(labels):
             # a deterministic controller has no stochastic value: its det value stands in both panels (paper)
-            m = mode if any(_per_seed(results, label, names, d, mode) for d in DAMPINGS) else "det"
-            vals = [_per_seed(results, label, names, d, m) for d in DAMPINGS]
+            m = mode if any(_per_seed(results, label, names, d, mode) for d in dampings) else "det"
+            vals = [_per_seed(results, label, names, d, m) for d in dampings]
             mean = [np.mean(v) if v else np.nan for v in vals]
             se = [np.std(v, ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0.0 for v in vals]
-            ax.bar(np.arange(len(DAMPINGS)) + (k - (len(labels) - 1) / 2) * width, mean, width, yerr=se,
+            ax.bar(np.arange(len(dampings)) + (k - (len(labels) - 1) / 2) * width, mean, width, yerr=se,
                    label=label, capsize=2)
-        ax.set_xticks(range(len(DAMPINGS)), [f"x{d:g}" for d in DAMPINGS])
+        ax.set_xticks(range(len(dampings)), [f"x{d:g}" for d in dampings])
         ax.set_title(f"{'(A) deterministic' if mode == 'det' else '(B) stochastic'}")
         ax.set_xlabel("damping multiplier")
         ax.set_ylim(0, 1.05)
@@ -434,7 +432,6 @@ def figure2(results: list[dict], labels: list[str], objects: list[str], path: Pa
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
     tmp.replace(path)
     return path
 
@@ -450,9 +447,9 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
                   f"{'; '.join(missing)}.", ""]
     if table in ("main", "ablation"):
         labels = list(dict.fromkeys(r["label"] for r in results))
+        fig = figure2(results, labels, list(c.objects), out / f"figure2_{table}.png", c.dampings)
         lines += ["Cells: det / stoch success, mean±SE over seeds; (paper det/stoch) where the paper has the object.",
-                  "", comparison_table(results, labels, list(c.objects)), "",
-                  f"![Figure 2]({figure2(results, labels, list(c.objects), out / f'figure2_{table}.png').name})"]
+                  "", comparison_table(results, labels, list(c.objects), c.dampings), "", f"![Figure 2]({fig.name})"]
     else:
         rows, columns = _diagnostic_layout(table, c)
         lines += [f"Object {Path(c.objects[0]).name} (the paper's diagnostic object is 45936); mean±SE over seeds.",
@@ -479,7 +476,7 @@ def _diagnostic_layout(table: str, c: ReproduceConfig):
     """Rows (display name, label) and columns (mode, damping, metric) of an appendix table."""
     stages = stage_epochs(table, c)
     rows = [(f"{name} ({e} ep)", f"{name}@{e}") for name, es in stages.items() for e in es]
-    success = [(m, d, "success_rate") for m in MODES for d in DAMPINGS]
+    success = [(m, d, "success_rate") for m in MODES for d in c.dampings]
     if table == "train-length":
         return rows, [("det", 1.0, "success_rate"), ("det", 4.0, "success_rate"), ("det", 4.0, "clip099")]
     if table == "ood":
@@ -500,7 +497,7 @@ def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: 
     steps = list(dict.fromkeys(steps))  # tables share runs (PICA in main and ablation; the base policy)
     t0 = time.time()
     results = execute(steps, c, out, progress, on_step) if run else \
-        [r for s in steps if isinstance(s, Eval) and (r := _current(s, out)) is not None]
+        [r for s in steps if isinstance(s, Eval) and (r := _current(s, c, out)) is not None]
     paths = [write_table(t, c, [r for r in results if r["label"] in labels], out)
              for t in tables for labels in [_labels(t, c)]]  # one plan per table, not one per result
     if run:

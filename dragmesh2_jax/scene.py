@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from dragmesh2_jax.assets import gripper as gripper_lib
 from dragmesh2_jax.assets import hand as hand_lib
@@ -159,8 +160,6 @@ def _piece_geom(parent: ET.Element, asset: ET.Element, piece: ConvexPiece, name:
         attrs.update(contype="0", conaffinity="0")
     attrs["mass"] = "0"
     if piece.is_box:
-        from scipy.spatial.transform import Rotation
-
         q = Rotation.from_matrix(piece.box_rot).as_quat()  # xyzw
         attrs.update(type="box", pos=_fmt(scale * piece.box_pos), size=_fmt(scale * piece.box_half),
                      quat=_fmt([q[3], q[0], q[1], q[2]]))

@@ -20,17 +20,21 @@ import numpy as np
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.baselines.brax_ppo import train_brax_ppo
 from dragmesh2_jax.evaluation.evaluate import evaluate
+from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.io import atomic_write_json
-from dragmesh2_jax.runs import eval_task, make_trainer, parse_floats
+from dragmesh2_jax.ppo.train import TrainProgram, epoch_jit, init_jit, seed_keys
+from dragmesh2_jax.runs.build import program_of
+from dragmesh2_jax.runs.commands import parse_floats
+from dragmesh2_jax.runs.spec import method_spec
 
-DAMPINGS = [1.0, 2.0, 4.0]
+DAMPINGS = list(PAPER.dampings)
 
 
-def ours(trainer, seed: int):
-    ts = trainer.init(seed)
-    for _ in range(trainer.config.epochs):
-        ts, _ = trainer.epoch(ts)
-    return trainer.controller(ts)
+def ours(program: TrainProgram, seed: int):
+    ts = init_jit(program, program.task.data, seed_keys([seed])[0])
+    for _ in range(program.config.epochs):
+        ts, _ = epoch_jit(program, program.task.data, ts)
+    return program.controller(ts)
 
 
 def main() -> None:
@@ -43,8 +47,8 @@ def main() -> None:
     args = p.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    trainer = make_trainer(args.object, None, "state_only", "mujoco", epochs=args.epochs)
-    task = eval_task(trainer.task)
+    program = program_of(method_spec("state_only", args.object, {"epochs": args.epochs}, backend="mujoco"))
+    task = PAPER.task(program.task)
     rows = []
     for seed in [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]:
         for impl in ("ours", "brax"):
@@ -54,11 +58,11 @@ def main() -> None:
                 continue
             t0 = time.time()
             if impl == "ours":
-                controller = ours(trainer, seed)
+                controller = ours(program, seed)
             else:
-                controller, _ = train_brax_ppo(trainer.task, dataclasses.replace(trainer.config, seed=seed))
+                controller, _ = train_brax_ppo(program.task, dataclasses.replace(program.config, seed=seed))
             seconds = time.time() - t0
-            res = evaluate(task, controller, DAMPINGS, ["det", "stoch"], args.episodes, seed=seed)
+            res = evaluate(task, controller, dataclasses.replace(PAPER, episodes=args.episodes, seed=seed))
             res.update(impl=impl, seed=seed, train_seconds=round(seconds, 1))
             atomic_write_json(path, res)
             rows.append(res)

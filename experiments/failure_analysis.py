@@ -21,7 +21,8 @@ import numpy as np
 from dragmesh2_jax.assets.hand import NUM_VIRTUAL
 from dragmesh2_jax.baselines.tracking import drag_targets
 from dragmesh2_jax.io import atomic_write_json
-from dragmesh2_jax.runs import load_task, parse_floats
+from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.runs.commands import parse_floats
 
 
 def envelope(task, speeds: list[int], dampings: list[float]) -> list[dict]:

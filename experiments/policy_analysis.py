@@ -15,17 +15,19 @@ import jax.numpy as jnp
 import numpy as np
 
 from dragmesh2_jax.assets.hand import NUM_VIRTUAL, active_dofs
+from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.io import atomic_write_json
-from dragmesh2_jax.ppo.train import CLIP_LEVEL
-from dragmesh2_jax.runs import eval_task, load_run, parse_floats
+from dragmesh2_jax.ppo.train import policy_params
+from dragmesh2_jax.runs.commands import load_run, parse_floats
+from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
 GROUPS = {"wrist_translation": np.arange(3), "wrist_rotation": np.arange(3, NUM_VIRTUAL)}
 
 
 def analyse(run: str, dampings: list[float], episodes: int, backend: str) -> list[dict]:
-    trainer, ts, _, ck = load_run(run, backend)
-    task = eval_task(trainer.task)
-    policy, params = trainer.make_policy(deterministic=True), trainer.policy_params(ts)
+    program, ts, _, ck = load_run(run, backend)
+    task = PAPER.task(program.task)
+    policy, params = program.make_policy(True), policy_params(ts)
     active = active_dofs()
     groups = {**GROUPS, "fingers_active": np.flatnonzero(active[NUM_VIRTUAL:]) + NUM_VIRTUAL,
               "locked": np.flatnonzero(~active)}

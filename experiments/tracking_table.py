@@ -9,9 +9,10 @@ import argparse
 import time
 from pathlib import Path
 
-from dragmesh2_jax.baselines.tracking import track
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.runs import load_task, parse_floats
+from dragmesh2_jax.evaluation.evaluate import track
+from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.runs.commands import parse_floats
 
 
 def main() -> None:

@@ -2,10 +2,21 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
+from importlib.metadata import entry_points
 from pathlib import Path
 
+import jax
 import pytest
+
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.policies.networks import NetworkConfig
+from dragmesh2_jax.ppo.train import TrainProgram
+from dragmesh2_jax.runs.build import load_task, program_of
+from dragmesh2_jax.runs.spec import RunSpec, method_spec
+from dragmesh2_jax.scene import build_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SHARED = Path(os.environ.get("DRAGMESH2_SHARED", ROOT.parent / "shared"))
@@ -13,14 +24,27 @@ GAPARTNET = SHARED / "gapartnet"
 REAL_OBJECTS = ("45261", "45661", "45780", "11712")
 
 
+#: The one tiny network and batch of the training tests: every tiny run shares their compiled programs.
+TINY_NET = NetworkConfig(state_sizes=(64, 64), hist_dim=32, heads=2, critic_sizes=(64,))
+TINY_PPO = {"num_envs": 4, "rollout_len": 8, "epochs": 2}
+
+
+def tiny_spec(method: str = "pica", obj: str | None = None, backend: str = "mujoco", task: dict | None = None,
+              scene: dict | None = None, **ppo) -> RunSpec:
+    """A method preset on ``obj`` (default: the packaged drawer) with the tiny network and batch."""
+    spec = method_spec(method, obj or str(default_object()), {**TINY_PPO, **ppo}, task, scene, backend)
+    return dataclasses.replace(spec, network=TINY_NET)
+
+
+def tiny_program(method: str = "pica", obj: str | None = None, backend: str = "mujoco", trajectory=None,
+                 task: dict | None = None, **ppo) -> TrainProgram:
+    return program_of(tiny_spec(method, obj, backend, task, **ppo), trajectory)
+
+
 def _enable_jax_cache() -> None:
     """A persistent compilation cache for local reruns. Not in CI, where the clone starts with an empty cache (so it
     only adds writes) and where a worker once crashed inside jaxlib while writing an MJX executable to it."""
     if os.environ.get("CI") == "true":
-        return
-    try:
-        import jax
-    except ImportError:
         return
     cache = os.environ.get("JAX_COMPILATION_CACHE_DIR", str(ROOT / ".cache" / "jax"))
     jax.config.update("jax_compilation_cache_dir", cache)
@@ -54,39 +78,26 @@ def shared_dir() -> Path:
 @pytest.fixture(scope="session")
 def real_objects(gapartnet_dir):
     """The four real objects, loaded once."""
-    from dragmesh2_jax.assets.gapartnet import load_gapartnet
-
     return {oid: load_gapartnet(require_shared(gapartnet_dir / oid)) for oid in REAL_OBJECTS}
 
 
 @pytest.fixture(scope="session")
 def real_scenes(real_objects):
-    from dragmesh2_jax.scene import build_scene
-
     return {oid: build_scene(obj) for oid, obj in real_objects.items()}
 
 
 @pytest.fixture(scope="session")
 def default_scene():
-    from dragmesh2_jax.assets.gapartnet import load_gapartnet
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.scene import build_scene
-
     return build_scene(load_gapartnet(default_object()))
 
 
 @pytest.fixture(scope="session")
 def drawer_task():
     """The packaged drawer with a generated trajectory, on the C backend (compiles in ~1 s)."""
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.runs import load_task
-
     return load_task(str(default_object()), None, backend="mujoco")
 
 
 def installed_command():
     """The ``dragmesh2`` command as installed (its console-script entry point), to call in-process."""
-    from importlib.metadata import entry_points
-
     (ep,) = entry_points(group="console_scripts", name="dragmesh2")
     return ep.load()

@@ -5,9 +5,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import jax
+import jax.numpy as jnp
 import pytest
 
-from tests.conftest import installed_command
+from dragmesh2_jax.bench import PAPER_EPOCHS, bench_soak, bench_train, learning_regressions
+from tests.conftest import installed_command, tiny_program
 
 dragmesh2 = installed_command()
 
@@ -23,15 +26,13 @@ def test_bench_env_json(capsys):
 
 
 def test_bench_train_reports_compile_budget_and_a_seed_column():
-    from dragmesh2_jax.assets.procedural import default_object
-    from dragmesh2_jax.bench import PAPER_EPOCHS, bench_train
-    from dragmesh2_jax.runs import make_trainer
-
-    trainer = make_trainer(str(default_object()), None, "pica", "mujoco", num_envs=2, rollout_len=4)
-    one, column = bench_train(trainer, epochs=1), bench_train(trainer, epochs=1, runs=2)
+    program = tiny_program()
+    one, column = bench_train(program, epochs=1), bench_train(program, epochs=1, runs=2)
     assert one["runs"] == 1 and column["runs"] == 2
+    c = program.config
     for r in (one, column):
-        assert r["env_steps_per_s"] == pytest.approx(r["runs"] * 2 * 4 / r["s_per_epoch"], rel=1e-2)
+        assert r["env_steps_per_s"] == pytest.approx(r["runs"] * c.num_envs * c.rollout_len / r["s_per_epoch"],
+                                                     rel=1e-2)
         assert r["budget_s"] == pytest.approx(r["first_epoch_s"] + (PAPER_EPOCHS - 1) * r["s_per_epoch"], abs=0.2)
 
 
@@ -47,11 +48,6 @@ def test_mjx_bench_runs_to_the_end_at_16_worlds_on_a_cpu():
 
 
 def test_bench_soak_counts_non_finite_worlds_per_damping_and_keeps_the_batch(drawer_task):
-    import jax
-    import jax.numpy as jnp
-
-    from dragmesh2_jax.bench import bench_soak
-
     rows = bench_soak(drawer_task, [1.0, 8.0], num_envs=2, steps=5)
     assert [r["damping"] for r in rows] == [1.0, 8.0] and all(r["batch_finite"] for r in rows)
     assert all(r["physics_steps"] == 2 * 5 * drawer_task.substeps for r in rows)
@@ -74,8 +70,6 @@ def test_bench_soak_counts_non_finite_worlds_per_damping_and_keeps_the_batch(dra
 
 
 def test_the_learning_check_names_a_collapse_and_a_drop_in_success():
-    from dragmesh2_jax.bench import learning_regressions
-
     def curves(success, progress, detach):  # 6 epochs x 2 seeds, each constant
         return {"seeds": [0, 1], "curves": {"obj": {k: [list(v)] * 6 for k, v in
                                                      (("success", success), ("progress", progress),

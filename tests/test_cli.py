@@ -1,9 +1,17 @@
 """The command line: inspect on real folders, the demo main job."""
 
+import dataclasses
 import json
 
 import pytest
+from PIL import Image
 
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.cli import CONFIG_CLASSES, build_parser, config_changes
+from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
+from dragmesh2_jax.runs.build import program_of
+from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.spec import RunSpec, method_spec
 from tests.conftest import installed_command
 
 dragmesh2 = installed_command()
@@ -27,26 +35,30 @@ def test_inspect_text_and_picture(gapartnet_dir, tmp_path, capsys):
 
 
 def test_evaluate_reports_rates_and_exact_reset_keeps_the_paper_protocol(tmp_path, capsys):
-    from dragmesh2_jax.assets.procedural import default_object
-
     run = tmp_path / "run"
     assert dragmesh2(["train", "--object", str(default_object()), "--out", str(run), "--epochs", "2", "--num-envs",
                       "4", "--robust-every", "1", "--backend", "mujoco", "--quiet", "--task.alpha", "0.04",
-                      "--scene.friction", "1.2", "--ppo.update-epochs", "2"]) == 0
+                      "--scene.friction", "1.2", "--ppo.update-epochs", "2", "--network.state-sizes", "64,64",
+                      "--network.hist-dim", "32", "--network.heads", "2"]) == 0
     capsys.readouterr()
     record = json.loads((run / "run.json").read_text())  # every config field is a flag, recorded in the run
     assert record["task"]["alpha"] == 0.04 and record["scene"]["friction"] == 1.2
     assert record["ppo"]["update_epochs"] == 2 and record["ppo"]["num_envs"] == 4
+    assert record["network"]["state_sizes"] == [64, 64] and record["network"]["hist_dim"] == 32
     assert dragmesh2(["evaluate", "--checkpoint", str(run), "--damping", "1,4", "--mode", "det", "--episodes", "4",
                  "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
-    assert res["checkpoint"].endswith("best_robust") and isinstance(res["starts"], dict)
+    assert res["checkpoint"].endswith("best_robust") and isinstance(res["protocol"]["starts"], dict)
     assert {"success_ci95", "clip099", "clip099_active", "steps_mean", "action_l2_mean"} <= set(res["cells"][0])
     assert dragmesh2(["evaluate", "--checkpoint", str(run), "--damping", "1", "--mode", "det", "--episodes", "3",
                  "--exact-reset", "--json"]) == 0
     exact = json.loads(capsys.readouterr().out)
-    assert exact["starts"] == "exact" and exact["cells"][0]["success_rate"] in (0.0, 1.0)  # one episode, repeated
-    assert (run / "eval_best_robust_exact.json").is_file()
+    assert exact["protocol"]["starts"] is None and exact["cells"][0]["success_rate"] in (0.0, 1.0)  # one, repeated
+    runs, ck = RunDir(run), RunDir(run).policy_checkpoint()
+    first = dataclasses.replace(PAPER, dampings=(1.0, 4.0), modes=("det",), episodes=4)
+    second = EvalProtocol(dampings=(1.0,), modes=("det",), episodes=3, starts=None)
+    assert runs.evaluation(ck, first)["cells"] == res["cells"]  # both kept: one never overwrites another's
+    assert runs.evaluation(ck, second)["cells"] == exact["cells"]
     for bad in (["--damping", "-1"], ["--damping", "nan"], ["--episodes", "0"]):
         assert dragmesh2(["evaluate", "--checkpoint", str(run), *bad]) == 2
 
@@ -54,8 +66,9 @@ def test_evaluate_reports_rates_and_exact_reset_keeps_the_paper_protocol(tmp_pat
 def test_demo_trains_evaluates_and_reports(tmp_path):
     """The main job end to end, with a 2-epoch preset (the real one is 60 epochs on a CPU)."""
     assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet"]) == 0
-    res = json.loads((tmp_path / "eval_best_robust.json").read_text())  # the checkpoint selected by robustness
-    assert res["checkpoint"].endswith("best_robust") and res["starts"]["bank"] >= 1  # perturbed starts
+    run = RunDir(tmp_path)
+    res = run.evaluation(run.checkpoint("best_robust"), PAPER)  # the checkpoint selected by robustness
+    assert res["checkpoint"].endswith("best_robust") and res["protocol"]["starts"]["bank"] >= 1  # perturbed starts
     assert sorted((c["damping"], c["mode"]) for c in res["cells"]) == sorted(
         (d, m) for d in (1.0, 2.0, 4.0) for m in ("det", "stoch"))
     assert all(c["episodes"] == 20 and len(c["success_ci95"]) == 2 for c in res["cells"])
@@ -77,8 +90,6 @@ def test_demo_trains_evaluates_and_reports(tmp_path):
 
 def _gif(path) -> tuple[int, int, int]:
     """(frames, width, height) of a GIF file."""
-    from PIL import Image
-
     with Image.open(path) as im:
         assert im.format == "GIF"
         return im.n_frames, *im.size
@@ -86,13 +97,11 @@ def _gif(path) -> tuple[int, int, int]:
 
 def test_a_controller_evaluates_through_the_same_protocol(capsys):
     """The tracking baseline: the evaluator's cells and metric names, from the protocol's perturbed starts."""
-    from dragmesh2_jax.assets.procedural import default_object
-
     assert dragmesh2(["evaluate", "--method", "tracking", "--object", str(default_object()), "--damping", "1",
                       "--mode", "det", "--episodes", "3", "--backend", "mujoco", "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     (cell,) = res["cells"]
-    assert res["method"] == "tracking" and isinstance(res["starts"], dict)
+    assert res["method"] == "tracking" and isinstance(res["protocol"]["starts"], dict)
     assert cell["episodes"] == 3 and cell["success_rate"] == 1.0 and 0 <= cell["clip099"] <= 1
 
 
@@ -110,16 +119,68 @@ BAD_INPUT = [
     ["video", "--checkpoint", "{tmp}/none"],
     ["bench", "soak", "--damping=1,-2"],
     ["train", "--object", "{obj}", "--out", "{tmp}/x", "--task.alpha", "fast"],  # a usage error
+    ["train", "--out", "{tmp}/run_without_configs", "--resume"],  # run.json = {"format": 2}
+    ["evaluate", "--checkpoint", "{tmp}/run_without_configs"],
     ["spin"],
 ]
 
 
 @pytest.mark.parametrize("argv", BAD_INPUT, ids=lambda a: " ".join(a[:1] + a[-2:]))
 def test_bad_input_is_one_error_line_and_status_2(argv, tmp_path, capsys):
-    from dragmesh2_jax.assets.procedural import default_object
-
     argv = [a.format(tmp=tmp_path, obj=default_object()) for a in argv]
+    (tmp_path / "run_without_configs").mkdir()
+    (tmp_path / "run_without_configs" / "run.json").write_text('{"format": 2}')
     assert dragmesh2(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: "), err
     assert not (tmp_path / "x").exists()  # nothing was written
+
+
+#: A valid value, not the default, for every --task./--scene./--ppo. flag of ``train`` (valid together).
+FLAG_VALUES = {
+    "task": {"alpha": 0.04, "control_dt": 1 / 30, "episode_length": 200, "history_len": 8, "aux_window": 3,
+             "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0), "damping_fixed": 2.0,
+             "friction_range": (0.8, 1.2), "force_obs": True, "nthread": 1},
+    "scene": {"scale": 0.45, "object_pos": (0.55, 0.0, 0.6), "timestep": 1 / 120, "damping": 20.0, "armature": 0.01,
+              "link_areal_density": 4.0, "friction": 1.2, "collide": "all", "collision_radius": 0.3,
+              "gravity": False, "solver_iterations": 5, "ls_iterations": 6},
+    "ppo": {"rollout_len": 16, "gamma": 0.98, "gae_lambda": 0.9, "lr": 1e-4, "kl_threshold": 0.01, "clip_eps": 0.1,
+            "update_epochs": 2, "num_minibatches": 2, "value_coef": 0.5, "clip_value": False, "entropy_coef": 1e-3,
+            "bounds_coef": 0.02, "aux_weight": 0.02, "aux_warmup": (2, 4), "aux_channel_weights": (1.0, 1.0, 1.0, 1.0),
+            "max_grad_norm": 0.5, "normalize_obs": False, "normalize_advantage": False},
+    "network": {"state_sizes": (64, 64), "hist_dim": 32, "heads": 2, "log_std_init": -1.5, "critic_sizes": (64,)},
+}
+
+
+def _flag(value) -> str:
+    if isinstance(value, tuple):
+        return ",".join(str(v) for v in value)
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and_scene():
+    argv = ["train", "--object", str(default_object()), "--out", "x"]
+    for prefix, values in FLAG_VALUES.items():
+        argv += [a for f, v in values.items() for a in (f"--{prefix}.{f.replace('_', '-')}", _flag(v))]
+    args = build_parser().parse_args(argv)
+    for prefix in CONFIG_CLASSES:
+        assert config_changes(args, prefix) == FLAG_VALUES[prefix], prefix
+    spec = method_spec("pica", args.object, config_changes(args, "ppo"), config_changes(args, "task"),
+                       config_changes(args, "scene"), backend="mujoco", network=config_changes(args, "network"))
+    assert RunSpec.from_record(spec.record("mujoco")) == spec  # the record holds every flag
+    program = program_of(spec)
+    built = {"task": program.task.config, "scene": program.task.scene.config, "ppo": program.config,
+             "network": program.method.network}
+    for prefix, values in FLAG_VALUES.items():
+        for f, v in values.items():
+            assert getattr(built[prefix], f) == v, f"{prefix}.{f}"
+    assert float(program.task.params.q_done) == pytest.approx(program.task.traj.q_done_at(0.6))  # rho is live
+    # and no flag is left out of this table: the parser offers exactly these
+    offered = {(a.dest.split("__", 1)[0], a.dest.split("__", 1)[1]) for a in
+               _train_parser()._actions if "__" in a.dest}
+    assert offered == {(p, f) for p, values in FLAG_VALUES.items() for f in values}
+
+
+def _train_parser():
+    sub = next(a for a in build_parser()._actions if a.dest == "cmd")
+    return sub.choices["train"]

@@ -1,11 +1,13 @@
-"""``dragmesh2 reproduce``: every table's plan runs on a tiny preset, writes the paper's layout, and an
-interrupted reproduction resumes without redoing finished runs."""
+"""``dragmesh2 reproduce``: every table's plan (with stand-ins for training and evaluation) writes the paper's layout,
+an interrupted reproduction resumes without redoing finished steps, and one real table runs on a tiny preset."""
 
 import dataclasses
 import json
+from pathlib import Path
 
 import pytest
 
+from dragmesh2_jax import reproduce as reproduce_lib
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.reproduce import TABLES, Eval, ReproduceConfig, Run, plan, reproduce
@@ -43,7 +45,36 @@ def test_plans_follow_the_paper():
         ReproduceConfig(objects=("a",), methods=("pica_typo",))
 
 
-def test_every_table_on_a_tiny_preset_and_an_interrupted_run_resumes(tmp_path):
+class FakeSteps:
+    """Stand-ins for training and evaluation that leave what the real ones leave (a run's log and checkpoints, an
+    evaluation's result), so the plan, the skipping of done steps and the tables run without computing."""
+
+    def __init__(self):
+        self.trained, self.evaluated = [], []
+
+    def train(self, run: Run, c, out) -> None:
+        self.trained.append(run)
+        folder = run.folder(out)
+        for name in ("final", f"epoch_{run.epochs:04d}", "best_robust"):
+            (folder.checkpoint(name) / "learner").mkdir(parents=True, exist_ok=True)
+        folder.write_log([{"epoch": e} for e in range(1, run.epochs + 1)])
+
+    def evaluate(self, ev: Eval, c, out) -> dict:
+        self.evaluated.append(ev)
+        modes = ("det",) if ev.run is None else ("det", "stoch")
+        result = {"label": ev.label, "seed": ev.seed, "object": Path(ev.object).name,
+                  "run_epochs": None if ev.run is None else ev.run.epochs,
+                  "cells": [{"damping": d, "mode": m, "success_rate": 0.5, "clip099": 0.1, "progress_mean": 0.5,
+                             "return_mean": 1.0, "detach_rate": 0.0} for d in c.dampings for m in modes]}
+        ev.path(out, c).parent.mkdir(parents=True, exist_ok=True)
+        ev.path(out, c).write_text(json.dumps(result))
+        return result
+
+
+def test_every_table_runs_its_plan_and_an_interrupted_reproduction_resumes(tmp_path, monkeypatch):
+    fake = FakeSteps()
+    monkeypatch.setattr(reproduce_lib, "_train", fake.train)
+    monkeypatch.setattr(reproduce_lib, "_evaluate", fake.evaluate)
     out = tmp_path / "rep"
     done: list = []
 
@@ -54,25 +85,39 @@ def test_every_table_on_a_tiny_preset_and_an_interrupted_run_resumes(tmp_path):
 
     with pytest.raises(KeyboardInterrupt):
         reproduce(["all"], TINY, out, progress=False, on_step=interrupt)
-    finished = [s for s in done if isinstance(s, Run)]
-    stamps = {s: (s.folder(out) / "checkpoints" / "final").stat().st_mtime_ns for s in finished}
-    # the next run was stopped after it logged an epoch but before its first checkpoint: it starts again
-    steps = [s for t in TABLES for s in plan(t, TINY)]
-    stopped = next(s for s in steps if isinstance(s, Run) and s not in finished).folder(out)
-    stopped.mkdir(parents=True)
-    (stopped / "log.jsonl").write_text(json.dumps({"epoch": 1}) + "\n")
+    first = len(fake.trained) + len(fake.evaluated)
+    assert first == 9
     paths = reproduce(["all"], TINY, out, progress=False)
+    steps = list(dict.fromkeys(s for t in TABLES for s in plan(t, TINY)))
+    assert len(fake.trained) + len(fake.evaluated) == len(steps)  # every step once: nothing done is redone
     assert [p.name for p in paths] == [f"{t}.md" for t in TABLES]
-    assert all((s.folder(out) / "checkpoints" / "final").stat().st_mtime_ns == t for s, t in stamps.items())
     main = (out / "main.md").read_text()
     assert "| tracking | x1 |" in main and "| parallel_jaw | x1 |" in main and "| pica | x4 |" in main
     assert "(0.89/0.82)" in main  # the paper's Avg beside ours
     assert (out / "figure2_main.png").read_bytes()[:4] == b"\x89PNG"
     res = json.loads((out / "ablation.json").read_text())["results"]
     assert {r["label"] for r in res} == {"gla_only", "pica_flat", "pica"}
-    assert all(len(r["cells"]) == 6 for r in res)  # x1/x2/x4 x det/stoch
     assert "pica+both+continued" in (out / "continued.md").read_text()
     assert "| pica+continued (7 ep) |" in (out / "train-length.md").read_text()  # 500 epochs at 2/150 scale
+    # a larger budget: the runs are trained on and evaluated again, the controllers' evaluations are kept
+    bigger = dataclasses.replace(TINY, epochs=3)
+    n_train, n_eval = len(fake.trained), len(fake.evaluated)
+    reproduce(["main"], bigger, out, progress=False)
+    runs = [s for s in plan("main", bigger) if isinstance(s, Run)]
+    assert len(fake.trained) - n_train == len(runs)
+    assert len(fake.evaluated) - n_eval == len(runs)  # the controllers' results are current
+
+
+def test_one_real_table_on_a_tiny_preset(tmp_path):
+    """The main table's real steps: a controller evaluated, PICA trained and evaluated (x1/x2/x4/x8)."""
+    c = dataclasses.replace(TINY, methods=("tracking", "pica"), dampings=(1.0, 2.0, 4.0, 8.0))
+    [path] = reproduce(["main"], c, tmp_path, progress=False)
+    table = path.read_text()
+    assert "| pica | x8 |" in table and "| tracking | x8 | 1.00" in table
+    run = Run(c.objects[0], 0, c.epochs, method="pica").folder(tmp_path)
+    assert run.trained_epochs() == 2 and run.spec().method == "pica"
+    result = run.evaluation(run.checkpoint("best_robust"), c.protocol)
+    assert [cell["damping"] for cell in result["cells"]] == [1.0, 2.0, 4.0, 8.0] * 2
 
 
 def test_the_command(tmp_path, capsys):
@@ -88,9 +133,9 @@ def test_tables_only_writes_what_is_done_and_names_what_is_not(tmp_path):
         if isinstance(step, Eval) and step.object == "a":
             rate = 1.0 if step.seed == 0 else 0.5
             cells = [{"damping": d, "mode": m, "success_rate": rate} for d in (1.0, 2.0, 4.0) for m in ("det", "stoch")]
-            step.path(tmp_path).parent.mkdir(parents=True, exist_ok=True)
-            step.path(tmp_path).write_text(json.dumps({"label": step.label, "seed": step.seed, "object": "a",
-                                                       "cells": cells, "run_epochs": 2}))
+            step.path(tmp_path, c).parent.mkdir(parents=True, exist_ok=True)
+            step.path(tmp_path, c).write_text(json.dumps({"label": step.label, "seed": step.seed, "object": "a",
+                                                          "cells": cells, "run_epochs": 2}))
     [path] = reproduce(["main"], c, tmp_path, progress=False, run=False)
     table = path.read_text()
     assert "| pica | x1 | 0.75±0.25 / 0.75±0.25" in table  # seeds 0 and 1 of object a

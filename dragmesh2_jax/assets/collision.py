@@ -10,9 +10,13 @@ Each mesh file of a link becomes convex pieces (object frame, unscaled):
 from __future__ import annotations
 
 import dataclasses
+import io
 from dataclasses import dataclass, field
 
+import coacd
 import numpy as np
+from scipy.optimize import nnls
+from scipy.spatial import ConvexHull, QhullError
 
 from dragmesh2_jax.assets.gapartnet import Link, load_mesh, mesh_files, transform_points
 from dragmesh2_jax.io import atomic_write_bytes, cache_dir, hash_files
@@ -51,8 +55,6 @@ def hull_distance(a: np.ndarray, b: np.ndarray) -> float:
     """Euclidean distance between the convex hulls of the point sets ``a`` and ``b`` (0 where they overlap): the
     distance from the origin to hull(a - b), the closest convex combination found by non-negative least squares
     with the weights' sum pinned to 1 by a heavy extra row."""
-    from scipy.optimize import nnls
-
     d = (a[:, None, :] - b[None, :, :]).reshape(-1, 3)
     w = 1e3 * max(1.0, float(np.abs(d).max()))
     weights, _ = nnls(np.vstack([d.T, np.full(len(d), w)]), np.array([0.0, 0.0, 0.0, w]))
@@ -89,8 +91,6 @@ def _reduce(points: np.ndarray, k: int) -> np.ndarray:
 
 def convex_piece(v: np.ndarray, max_vertices: int) -> ConvexPiece:
     """Hull of ``v`` with at most ``max_vertices`` vertices, or a thin box if the hull is degenerate."""
-    from scipy.spatial import ConvexHull, QhullError
-
     if len(v) < 4:
         return oriented_box(v) if len(v) else oriented_box(np.zeros((1, 3)))
     c = v - v.mean(axis=0)
@@ -110,8 +110,6 @@ def convex_piece(v: np.ndarray, max_vertices: int) -> ConvexPiece:
 def _decompose(v: np.ndarray, f: np.ndarray, max_pieces: int, threshold: float) -> list[np.ndarray]:
     """CoACD approximate convex decomposition; falls back to the whole piece if it fails."""
     try:
-        import coacd
-
         coacd.set_log_level("error")
         parts = coacd.run_coacd(coacd.Mesh(v, f), threshold=threshold, max_convex_hull=max_pieces,
                                 preprocess_resolution=20, seed=0)
@@ -125,8 +123,6 @@ def concavity(v: np.ndarray) -> float:
     """Depth of the deepest vertex inside the convex hull of the piece's silhouette (projected onto its two
     principal axes), relative to the second-largest extent: about 0 for convex pieces, > 0.1 for an L- or
     U-shaped handle seen side-on. Uses vertices only, so open (non-watertight) meshes are fine."""
-    from scipy.spatial import ConvexHull, QhullError
-
     if len(v) < 4:
         return 0.0
     c = v - v.mean(axis=0)
@@ -183,9 +179,7 @@ def link_pieces(link: Link, decompose: bool, config: GeometryConfig = GeometryCo
         chunks = _decompose(v, f, config.max_handle_pieces, config.coacd_threshold) if concave else [v]
         pieces.extend(convex_piece(c, config.max_hull_vertices) for c in chunks)
     if use_cache:
-        import io as _io
-
-        buf = _io.BytesIO()
+        buf = io.BytesIO()
         np.savez(buf, **_pack(pieces))
         atomic_write_bytes(cache, buf.getvalue())
     return pieces

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import trimesh
 from defusedxml import ElementTree as SafeET
 
 from dragmesh2_jax.errors import DragMeshError
@@ -356,7 +357,10 @@ def read_parts(folder: Path, links: dict[str, Link]) -> list[Part]:
                 raise DragMeshError(f"{path}: entry {i} has no 'link_name'")
             if not e.get("is_gapart"):
                 continue
-            bbox = np.asarray(e.get("bbox"), dtype=np.float64)
+            try:
+                bbox = np.asarray(e.get("bbox"), dtype=np.float64)
+            except (TypeError, ValueError):  # ragged or non-numeric corners
+                bbox = np.zeros(0)
             if bbox.shape != (8, 3) or not np.all(np.isfinite(bbox)):
                 raise DragMeshError(f"{path}: entry {i} ({e['link_name']}) bbox is not 8 finite corners")
             if e["link_name"] not in links:
@@ -553,8 +557,6 @@ def load_gapartnet(folder: str | Path) -> GAPartNetObject:
 # ---------------------------------------------------------------------------------- meshes of a link
 def load_mesh(path: Path):
     """(vertices, faces) of a mesh file; a clear error for an unreadable or non-finite one."""
-    import trimesh
-
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

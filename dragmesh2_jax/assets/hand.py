@@ -18,6 +18,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 FINGERS = ("Index", "Middle", "Pinky", "Ring", "Thumb")
 NUM_DOFS = 51
@@ -281,12 +282,8 @@ def hand_only_xml(config: HandConfig = HandConfig(), timestep: float = 1.0 / 240
 
 def wrist_euler_from_matrix(R: np.ndarray) -> np.ndarray:
     """Intrinsic XYZ Euler angles (q3, q4, q5) with R = Rx(q3) Ry(q4) Rz(q5)."""
-    from scipy.spatial.transform import Rotation
-
     return Rotation.from_matrix(np.asarray(R)).as_euler("XYZ")
 
 
 def matrix_from_wrist_euler(rpy) -> np.ndarray:
-    from scipy.spatial.transform import Rotation
-
     return Rotation.from_euler("XYZ", np.asarray(rpy)).as_matrix()

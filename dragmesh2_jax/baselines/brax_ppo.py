@@ -18,14 +18,17 @@ from typing import Any
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+from brax.training.agents.ppo import networks as ppo_networks
+from brax.training.agents.ppo import train as ppo
 
-from dragmesh2_jax.evaluation.evaluate import Controller
+from dragmesh2_jax.policies.controller import Controller
+from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.task.brax_env import BraxPullEnv
 from dragmesh2_jax.task.env import PullTask
 
 BRAX_STATE_ONLY = "brax_state_only"
-HIDDEN = (512, 512, 256)  # our state MLP (ActorCritic.state_sizes), for the policy and for the value network
-LOG_STD_INIT = -2.0  # ours (ActorCritic.log_std_init)
+NETWORK = NetworkConfig()  # our state MLP's sizes (for brax's policy and value networks) and initial log std
 
 
 def _device_put_replicated(x: Any, devices: list) -> Any:
@@ -57,16 +60,13 @@ def brax_ppo_kwargs(config: PPOConfig, episode_length: int) -> dict:
 def train_brax_ppo(task: PullTask, config: PPOConfig = PPOConfig()) -> tuple[Controller, dict]:
     """Train state-only PPO with brax on ``task`` (the state-only preset's task); returns the trained policy as
     the evaluator's :class:`Controller` and brax's final training metrics."""
-    from brax.training.agents.ppo import networks as ppo_networks
-    from brax.training.agents.ppo import train as ppo
-
-    from dragmesh2_jax.task.brax_env import BraxPullEnv
-
     _jax_compat()
     env = BraxPullEnv(task)
     network_factory = functools.partial(
-        ppo_networks.make_ppo_networks, policy_hidden_layer_sizes=HIDDEN, value_hidden_layer_sizes=HIDDEN,
-        activation=nn.elu, distribution_type="normal", noise_std_type="log", init_noise_std=math.exp(LOG_STD_INIT))
+        ppo_networks.make_ppo_networks, policy_hidden_layer_sizes=NETWORK.state_sizes,
+        value_hidden_layer_sizes=NETWORK.state_sizes,
+        activation=nn.elu, distribution_type="normal", noise_std_type="log",
+        init_noise_std=math.exp(NETWORK.log_std_init))
     make_policy, params, metrics = ppo.train(env, network_factory=network_factory,
                                              **brax_ppo_kwargs(config, env.episode_length))
     return brax_controller(make_policy, params), {k: float(v) for k, v in metrics.items()}

@@ -22,8 +22,10 @@ import numpy as np
 from dragmesh2_jax.assets import gripper
 from dragmesh2_jax.assets.gapartnet import axis_angle_matrix, opening_direction
 from dragmesh2_jax.baselines.tracking import replay
-from dragmesh2_jax.evaluation.evaluate import Controller
+from dragmesh2_jax.policies.controller import Controller
+from dragmesh2_jax.scene import build_scene
 from dragmesh2_jax.task.env import PullTask
+from dragmesh2_jax.trajectory.generator import continuous_euler
 
 PARALLEL_JAW = "parallel_jaw"
 
@@ -50,8 +52,6 @@ def jaw_frame(handle) -> np.ndarray:
 def primitive_plan(scene, steps: int, params: PrimitiveParams = PrimitiveParams()) -> tuple[np.ndarray, np.ndarray]:
     """(start q (8,), PD targets (steps, 8)) of the primitive in ``scene`` (a gripper scene), from the target part's
     ground-truth pose: approach, close, pull."""
-    from dragmesh2_jax.trajectory.generator import continuous_euler
-
     h, t = scene.handle, scene.obj.target
     s, pos = scene.config.scale, np.asarray(scene.config.object_pos)
     R_w = jaw_frame(h)
@@ -86,8 +86,6 @@ def primitive_plan(scene, steps: int, params: PrimitiveParams = PrimitiveParams(
 def parallel_jaw(task: PullTask, params: PrimitiveParams = PrimitiveParams()) -> tuple[PullTask, Controller]:
     """The primitive on ``task``'s object: its own task (the gripper in ``task``'s scene settings, ``task``'s
     config, trajectory boundary and start perturbation) and the controller that drives it."""
-    from dragmesh2_jax.scene import build_scene
-
     scene = build_scene(task.scene.obj, dataclasses.replace(task.scene.config, effector=PARALLEL_JAW))
     start, targets = primitive_plan(scene, task.config.episode_length, params)
     traj = task.traj

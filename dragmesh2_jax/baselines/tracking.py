@@ -14,8 +14,9 @@ import functools
 import jax.numpy as jnp
 import numpy as np
 
-from dragmesh2_jax.evaluation.evaluate import Controller, make_rollout
-from dragmesh2_jax.task.env import Obs, PullTask
+from dragmesh2_jax.policies.controller import Controller
+from dragmesh2_jax.task.env import PullTask
+from dragmesh2_jax.task.protocol import Obs
 
 TRACKING = "tracking"
 TRACKING_DELTA = "tracking_delta"
@@ -56,10 +57,3 @@ def tracking_delta_controller(task: PullTask) -> Controller:
     policy = functools.partial(increments, task.config.alpha)
     return Controller(TRACKING_DELTA, lambda deterministic: policy, jnp.asarray(drag_targets(task)),
                       key=TRACKING_DELTA)
-
-
-def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 0) -> list[dict]:
-    """The evaluator's cells of the tracking baseline on ``task`` (its own starts: exact unless the config
-    perturbs them) at each damping multiplier."""
-    c = tracking_controller(task)
-    return make_rollout(task, replay, dampings, episodes, c.controls, key=c.key)(c.params, seed)

@@ -5,17 +5,25 @@ the model inside the step, so nothing recompiles."""
 from __future__ import annotations
 
 import contextlib
+import importlib.util
+import io
+import os
 import sys
 
 import jax
 import jax.numpy as jnp
+import jaxlib
 from flax import struct
+from jax._src import xla_bridge
 
-with contextlib.redirect_stdout(sys.stderr):  # mujoco.mjx prints "Failed to import warp" when warp is absent
-    from mujoco import mjx
-
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, stack_states, take_state
 from dragmesh2_jax.scene import SENSORS, Scene
+
+_IMPORT_NOTES = io.StringIO()  # mujoco.mjx prints "Failed to import warp" when warp is absent: shown only for warp
+with contextlib.redirect_stdout(_IMPORT_NOTES):
+    from mujoco import mjx
+
 
 FORCE_SLICE = slice(3 * len(SENSORS), None)  # the contact-load sensors: the last ones in sensordata
 
@@ -37,11 +45,6 @@ def avoid_lapack_deadlock() -> None:
     started with one CPU and the affinity restored: the C engine's threads and everything else keep every core.
     It must run before anything starts JAX's backends (``MjxBackend`` and the CLI call it); when too late, it
     warns once."""
-    import os
-
-    import jaxlib
-    from jax._src import xla_bridge
-
     version = tuple(int(x) for x in jaxlib.__version__.split(".")[:2])
     if version >= (0, 11) or not hasattr(os, "sched_setaffinity") or _accelerator_plugin():
         return
@@ -68,9 +71,6 @@ _DONE: list[bool] = []  # pinned (or warned) once per process
 def _accelerator_plugin() -> bool:
     """Whether JAX may start an accelerator client here (a CUDA/ROCm plugin is installed and the platforms are
     not restricted to the CPU): then the pin is not ours to make (an accelerator's host threads need the cores)."""
-    import importlib.util
-    import os
-
     platforms = os.environ.get("JAX_PLATFORMS") or jax.config.jax_platforms or ""
     if platforms.strip().lower() == "cpu":
         return False
@@ -84,6 +84,9 @@ class MjxBackend:
     def __init__(self, scene: Scene, substeps: int, starts: list[Start], settle_substeps: int = 4,
                  impl: str = "jax"):
         avoid_lapack_deadlock()
+        if impl == "warp" and importlib.util.find_spec("warp") is None:
+            raise DragMeshError("MJX's Warp implementation needs warp-lang (pip install -e \".[warp]\"); "
+                                f"mujoco.mjx said: {_IMPORT_NOTES.getvalue().strip() or 'nothing'}")
         self.scene, self.substeps, self.impl = scene, substeps, impl
         bank = stack_states([mjx.put_data(scene.model, scene.settled_state(hand_q, obj_q, settle_substeps),
                                           impl=impl) for hand_q, obj_q in starts])

@@ -15,9 +15,11 @@ interface, success threshold, damping multipliers, episode length) is the paper'
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.policies.networks import NetworkConfig
+from dragmesh2_jax.task.config import ResetNoise, RewardConfig
 
 
 @dataclass(frozen=True)
@@ -31,6 +33,7 @@ class Method:
     damping_range: tuple[float, float] | None = None  # training range; None: the paper's [1, 2]
     reset_noise: bool = False  # train from perturbed expert grasps (TaskConfig.reset_noise)
     w_load: float = 0.0  # the load-budget reward (RewardConfig.w_load)
+    network: NetworkConfig = field(default_factory=NetworkConfig)  # the actor-critic's sizes
 
 
 METHODS = {m.name: m for m in (
@@ -65,8 +68,6 @@ def get_method(name: str) -> Method:
 def task_overrides(method: Method) -> dict:
     """TaskConfig changes for a method: without physical signals, no PICA reward terms and nominal damping;
     the observation, damping range and start perturbation of the presets beyond the paper."""
-    from dragmesh2_jax.task.config import ResetNoise, RewardConfig
-
     out: dict = {}
     if not method.physical_signals:
         out = {"reward": RewardConfig(w_bound=0.0, w_contact=0.0), "damping_range": (1.0, 1.0)}

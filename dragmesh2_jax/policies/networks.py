@@ -17,16 +17,31 @@ damping and friction multipliers and the contact load; the actor never sees them
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import flax.linen as nn
+import jax
 import jax.numpy as jnp
 
 from dragmesh2_jax.assets.hand import NUM_DOFS
+from dragmesh2_jax.policies.controller import Policy
 from dragmesh2_jax.policies.gla import GatedLinearAttention
 from dragmesh2_jax.policies.init import TORCH_LINEAR_INIT, Dense
+from dragmesh2_jax.task.protocol import Obs
 
 ENCODERS = ("none", "flat", "gla", "gru", "transformer")
 CRITICS = ("shared", "privileged")
+
+
+@dataclass(frozen=True)
+class NetworkConfig:
+    """Sizes of the actor-critic (paper Table 8; facts §6). A method carries one (``Method.network``)."""
+
+    state_sizes: tuple[int, ...] = (512, 512, 256)  # the state MLP
+    hist_dim: int = 128  # z_hist
+    heads: int = 4  # GLA / attention heads
+    log_std_init: float = -2.0  # the state-independent log std (std 0.135)
+    critic_sizes: tuple[int, ...] = (512, 256)  # the privileged critic's MLP
 
 
 class MLP(nn.Module):
@@ -78,26 +93,23 @@ class TemporalEncoder(nn.Module):
 
 class ActorCritic(nn.Module):
     encoder: str = "gla"
-    state_sizes: Sequence[int] = (512, 512, 256)
-    hist_dim: int = 128
-    heads: int = 4
+    config: NetworkConfig = NetworkConfig()
     action_size: int = NUM_DOFS
-    log_std_init: float = -2.0
     aux_size: int = 4
     critic: str = "shared"
-    critic_sizes: Sequence[int] = (512, 256)  # the privileged critic's MLP
 
     def setup(self):
-        self.state_mlp = MLP(self.state_sizes)
+        c = self.config
+        self.state_mlp = MLP(c.state_sizes)
         if self.encoder != "none":
-            self.temporal = TemporalEncoder(self.encoder, self.hist_dim, self.heads)
+            self.temporal = TemporalEncoder(self.encoder, c.hist_dim, c.heads)
         self.mu = Dense(self.action_size)
         if self.critic == "privileged":
-            self.critic_mlp = MLP(self.critic_sizes)
+            self.critic_mlp = MLP(c.critic_sizes)
         elif self.critic != "shared":
             raise ValueError(f"unknown critic {self.critic!r}")
         self.value = Dense(1)
-        self.log_std = self.param("log_std", nn.initializers.constant(self.log_std_init), (self.action_size,))
+        self.log_std = self.param("log_std", nn.initializers.constant(c.log_std_init), (self.action_size,))
         self.aux_head = MLP((64,))
         self.aux_out = Dense(self.aux_size)
 
@@ -126,4 +138,24 @@ class ActorCritic(nn.Module):
     def init_all(self, state, history, privileged):
         """Initialise every parameter, the aux head included."""
         _, _, _, h = self(state, history, privileged)
-        return self.aux(h if h is not None else jnp.zeros((*state.shape[:-1], self.hist_dim)))
+        return self.aux(h if h is not None else jnp.zeros((*state.shape[:-1], self.config.hist_dim)))
+
+
+def make_inference_fn(net: ActorCritic, normalize_obs: bool):
+    """Brax's ``make_inference_fn``: ``make_policy(deterministic) -> policy(params, obs, key) -> action``, the
+    Gaussian mean (det) or a sample (stoch). ``params`` = {"net", "state_stats", "token_stats"}: the network and
+    the observation normalisers; the policy reads obs.state and obs.history only."""
+
+    def make_policy(deterministic: bool = True) -> Policy:
+        def policy(params, obs: Obs, key):
+            s, h = obs.state, obs.history
+            if normalize_obs:
+                s, h = params["state_stats"].normalize(s), params["token_stats"].normalize(h)
+            mu, log_std = net.apply(params["net"], s, h, method=ActorCritic.actor)
+            if deterministic:
+                return mu
+            return mu + jnp.exp(log_std) * jax.random.normal(key, mu.shape)
+
+        return policy
+
+    return make_policy

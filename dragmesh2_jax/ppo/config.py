@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import jax.numpy as jnp
+
 from dragmesh2_jax.errors import DragMeshError
 
 
@@ -45,7 +47,5 @@ class PPOConfig:
 
     def aux_weight_at(self, epoch):
         """w_aux(epoch): 0 -> aux_weight, linear over ``aux_warmup`` (epochs counted from 0)."""
-        import jax.numpy as jnp
-
         a, b = self.aux_warmup
         return self.aux_weight * jnp.clip((epoch - a) / max(b - a, 1), 0.0, 1.0)

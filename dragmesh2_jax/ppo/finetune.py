@@ -5,6 +5,7 @@ stays finished. A preset never forks the code: it is a set of TaskConfig overrid
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from dragmesh2_jax.errors import DragMeshError
@@ -22,8 +23,6 @@ class Finetune:
 
     def task_overrides(self, reward) -> dict:
         """TaskConfig changes on top of the run's ``reward`` config."""
-        import dataclasses
-
         out: dict = {}
         if self.aram is not None or self.reconfig is not None:
             out["reward"] = dataclasses.replace(reward, aram=self.aram, reconfig=self.reconfig)

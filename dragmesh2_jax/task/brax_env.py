@@ -2,7 +2,7 @@
 over brax's ``State``, with ``observation_size`` and ``action_size``, so brax's training algorithms
 (``brax.training.agents.ppo.train``) run on it unchanged.
 
-brax's ``State.pipeline_state`` holds the task's whole :class:`~dragmesh2_jax.task.env.State`; the observation is
+brax's ``State.pipeline_state`` holds the task's whole :class:`~dragmesh2_jax.task.protocol.State`; the observation is
 s_t (``obs.state``), as the state-only baseline sees it. ``done`` is the task's termination (success, detachment,
 non-finite physics): brax's ``EpisodeWrapper`` adds the time limit itself and marks it as a truncation, so the
 episode length must be the task's (``episode_length``); ``info["time_out"]`` flags the task's time limit for
@@ -17,7 +17,7 @@ from brax.envs.base import Env
 from brax.envs.base import State as BraxState
 
 from dragmesh2_jax.task.env import PullTask
-from dragmesh2_jax.task.env import State as TaskState
+from dragmesh2_jax.task.protocol import State as TaskState
 
 #: The task metrics brax accumulates per episode (each is 1 at the step it happens, so the sum is the event).
 EPISODE_METRICS = ("success", "detach")

@@ -5,8 +5,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import jax
+
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS
+from dragmesh2_jax.trajectory.schema import RHO
 
 BACKENDS = ("auto", "mjx", "mujoco")
 IMPLS = ("jax", "warp")
@@ -100,9 +103,6 @@ class ResetNoise:
             raise DragMeshError(f"reset noise bank must be >= 1, got {self.bank}")
 
 
-#: The evaluation protocol's perturbed starts (``evaluate --exact-reset`` uses the paper's exact reset instead).
-EVAL_RESET_NOISE = ResetNoise(seed=12345)
-
 
 @dataclass(frozen=True)
 class TaskConfig:
@@ -113,7 +113,7 @@ class TaskConfig:
     episode_length: int = 300  # T_max (a truncation, not a failure)
     history_len: int = 16  # L
     aux_window: int = 5  # K
-    rho: float = 0.5  # success-threshold fraction
+    rho: float = RHO  # success threshold: q_done = q_min + rho (q_max - q_min) over the trajectory
     d_detach: float = 0.10  # m
     settle_substeps: int = RESET_SETTLE_SUBSTEPS  # physics steps from rest after writing the start (facts §4)
     damping_range: tuple[float, float] = (1.0, 2.0)  # x nominal, sampled per reset (training)
@@ -152,6 +152,4 @@ class TaskConfig:
     def resolved_backend(self) -> str:
         if self.backend != "auto":
             return self.backend
-        import jax
-
         return "mjx" if jax.default_backend() in ("gpu", "tpu", "cuda", "rocm") else "mujoco"

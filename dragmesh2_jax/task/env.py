@@ -1,7 +1,8 @@
 """The contact-driven pulling task (paper §3.1-3.2, Appendix A) as pure functions of one world's ``State``.
 
-``reset(key) -> State`` and ``step(state, action) -> State`` act on one world; batch them with ``jax.vmap``
-and roll them out with ``jax.lax.scan`` (see :func:`make_batched`). Finished worlds reset inside ``step``.
+:class:`PullTask` is an env of ``task/protocol.py``: ``reset(key) -> State`` and ``step(state, action) -> State``
+act on one world; batch them with ``jax.vmap`` (:func:`make_batched`); ``wrappers.AutoReset`` restarts finished
+worlds. A step is physics -> events -> reward -> observation (:meth:`PullTask.step`).
 
 Units and frames: world frame, metres, radians, seconds. One step = ``control_dt`` (1/60 s) = ``substeps``
 physics steps. The policy acts only on the hand: target = clip(q_hand + alpha a, limits); the target object
@@ -24,11 +25,12 @@ every history token (-> 124). f_t = signed log1p of [wrist force (3, N), wrist t
 force on the palm and each of the 15 phalanges (16, N)], so that a grip and a yank fit one scale.
 
 The object is data: everything object-specific (the backend's model and start bank, the task boundary, the
-nominal model fields) is ``task.data`` (:class:`TaskData`), and :meth:`PullTask.bind` gives the same task over
-other data, as Playground's domain-randomisation wrapper swaps the model inside a traced function. A program
-written against ``task.bind(data)`` with ``data`` an argument compiles once for every object of the same
-structure (see ``ppo/train.py``).
+nominal model fields, the adaptive ARAM weight) is ``task.data`` (:class:`TaskData`), and :meth:`PullTask.bind`
+gives the same task over other data, as Playground's domain-randomisation wrapper swaps the model inside a traced
+function. A program written against ``task.bind(data)`` with ``data`` an argument compiles once for every object
+of the same structure (see ``ppo/train.py``).
 
+Success: q >= q_done = q_min + rho (q_max - q_min) over the trajectory (``TaskConfig.rho``; facts §4).
 Reset: each episode starts at the expert grasp (drag-start frame, settled), or, with ``TaskConfig.reset_noise``,
 at one of a bank of seeded perturbations of it (evaluation uses one by default, so a deterministic cell is a
 distribution, not one episode repeated).
@@ -37,7 +39,6 @@ distribution, not one episode repeated).
 from __future__ import annotations
 
 import copy
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -47,45 +48,25 @@ from flax import struct
 from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics.base import Backend, Kinematics, Start, WorldFields
+from dragmesh2_jax.physics.mjx_backend import MjxBackend
+from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
+from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
+from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import aram_penalty, reconfig_bonus, reward_terms
-from dragmesh2_jax.trajectory.schema import Trajectory
+from dragmesh2_jax.trajectory.schema import RHO, Trajectory
 
 STATE_SIZE = 120
 TOKEN_SIZE = 2 * NUM_DOFS
 AUX_SIZE = 4
-PRIVILEGED_SIZE = 2 + FORCE_SIZE
-METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "active_abs_max", "action_l2", "palm_dist",
-           "reward",
-           "nonfinite", "episode_return", "episode_length", "q")
-
-
-@struct.dataclass
-class Obs:
-    state: jnp.ndarray
-    history: jnp.ndarray
-    aux: jnp.ndarray
-    privileged: jnp.ndarray
-    step: jnp.ndarray  # int32 control step within the episode
-
-
-@struct.dataclass
-class State:
-    physics: Any
-    obs: Obs
-    reward: jnp.ndarray
-    done: jnp.ndarray  # the episode ended at this step (terminated or truncated); obs is already the new one's
-    terminated: jnp.ndarray  # success, detachment failure or non-finite physics: no bootstrap
-    truncated: jnp.ndarray  # time limit: bootstrap from the value
-    final_obs: Obs  # the observation the step reached, before any automatic reset (for value bootstrap)
-    metrics: dict
-    info: dict
+PRIVILEGED_SIZE = len(randomize.RANDOMIZERS) + FORCE_SIZE
 
 
 @struct.dataclass
 class TaskParams:
-    """Per-object task boundary from the reference trajectory (paper eq. done/progress)."""
+    """Per-object task boundary from the reference trajectory (paper eq. done/progress), and the reward's
+    adaptive ARAM weight (set by the trainer once per epoch; 0 unless ARAM is on)."""
 
     q_start: jnp.ndarray
     q_goal: jnp.ndarray
@@ -94,20 +75,17 @@ class TaskParams:
     hand_lo: jnp.ndarray
     hand_hi: jnp.ndarray
     revolute: jnp.ndarray  # the target joint is a hinge (bool)
-
-
-#: The model fields each world draws its own value of (damping and friction randomisation).
-RANDOMIZED_FIELDS = ("dof_damping", "geom_friction")
+    aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
 
 
 @struct.dataclass
 class TaskData:
     """Everything object-specific the task's functions read: an argument of a compiled program, not a constant."""
 
-    physics: Any  # the backend's data (model or host handle, start bank, layout)
+    physics: object  # the backend's data (model or host handle, start bank, layout)
     params: TaskParams
     start_ctrl: jnp.ndarray  # (bank, 51) the PD target each start was settled with
-    fields: WorldFields  # nominal values of RANDOMIZED_FIELDS
+    fields: WorldFields  # nominal values of the randomised fields (randomize.FIELDS)
 
 
 def trajectory_joint(obj, traj: Trajectory) -> str:
@@ -130,15 +108,16 @@ def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
     if moved != obj.target.joint.name:
         raise DragMeshError(f"trajectory moves joint {moved} but the target of object {obj.object_id} is "
                             f"{obj.target.joint.name} (build the scene from obj.with_target({moved!r}); "
-                            "runs.load_task does)")
+                            "runs.build.load_task does)")
     if not traj.q_max - traj.q_min > 1e-6:
         raise DragMeshError("trajectory never moves its target joint (zero motion range)")
 
 
-def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start: Start | None = None) -> list[Start]:
+def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start: Start | None = None,
+                 rho: float = RHO) -> list[Start]:
     """The start states of the task: ``start`` (default: the expert grasp, the trajectory's drag-start frame), or
     ``noise.bank`` seeded perturbations of it (truncated normal on the wrist pose and, for the hand, the active
-    finger joints; the object joint opened by a uniform fraction of the distance to q_done)."""
+    finger joints; the object joint opened by a uniform fraction of the distance to q_done at ``rho``)."""
     if start is None:
         frame = traj.frames[traj.drag_start]
         start = frame.hand_q, frame.joint_positions[traj.target_index]
@@ -154,7 +133,7 @@ def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start
         dq = np.zeros(len(hand_q))
         dq[:3], dq[3:NUM_VIRTUAL] = trunc(noise.wrist_pos, 3), trunc(noise.wrist_rot, 3)
         dq[fingers] = trunc(noise.fingers, len(fingers))
-        opened = rng.uniform(0.0, noise.object_q) * (traj.q_done - traj.q_start)
+        opened = rng.uniform(0.0, noise.object_q) * (traj.q_done_at(rho) - traj.q_start)
         starts.append((hand_q + dq, obj_q + opened))
     return starts
 
@@ -166,30 +145,40 @@ def make_backend(scene: Scene, config: TaskConfig, starts: list[Start]) -> Backe
                             f"{scene.config.timestep}")
     args = (scene, int(round(substeps)), starts, config.settle_substeps)
     if config.resolved_backend() == "mjx":
-        from dragmesh2_jax.physics.mjx_backend import MjxBackend
-
         return MjxBackend(*args, impl=config.impl)
-    from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
-
     return MujocoBackend(*args, nthread=config.nthread)
 
 
+@struct.dataclass
+class Events:
+    """What one step's physics meant for the episode."""
+
+    d: jnp.ndarray  # palm-handle distance (m)
+    q: jnp.ndarray  # target-joint position
+    success: jnp.ndarray
+    detach: jnp.ndarray
+    terminated: jnp.ndarray
+    truncated: jnp.ndarray
+    step: jnp.ndarray  # control steps taken in the episode
+
+
 class PullTask:
-    """One object, one trajectory, one config. ``reset``/``step`` are pure per-world functions."""
+    """One object, one trajectory, one config: the env of ``task/protocol.py`` (no automatic reset: see
+    ``wrappers.AutoReset``)."""
 
     def __init__(self, scene: Scene, traj: Trajectory, config: TaskConfig = TaskConfig(), start: Start | None = None):
         check_trajectory_matches(scene, traj)
         self.scene, self.traj, self.config = scene, traj, config
-        starts = reset_starts(scene, traj, config.reset_noise, start)
+        starts = reset_starts(scene, traj, config.reset_noise, start, config.rho)
         self.backend = make_backend(scene, config, starts)
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
         params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
-                            q_done=jnp.float32(traj.q_done), damping=jnp.float32(scene.config.damping),
+                            q_done=jnp.float32(traj.q_done_at(config.rho)), damping=jnp.float32(scene.config.damping),
                             hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32),
                             revolute=jnp.bool_(scene.ids.target_is_revolute))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
-                             fields={f: jnp.asarray(getattr(scene.model, f)) for f in RANDOMIZED_FIELDS})
+                             fields={f: jnp.asarray(getattr(scene.model, f)) for f in randomize.FIELDS})
         self.action_size = len(scene.ids.hand_qpos)  # 51 for the hand, 8 for the gripper
         self.active = jnp.asarray(scene.config.active_dofs())
         self.substeps = self.backend.substeps
@@ -216,13 +205,6 @@ class PullTask:
 
     def kinematics(self, ps) -> Kinematics:
         return self.backend.kinematics(self.data.physics, ps)
-
-    def world_fields(self, damping_scale, friction_scale) -> WorldFields:
-        """One world's model fields: the target joint's damping x ``damping_scale``, the sliding friction of the
-        object's colliding geoms x ``friction_scale``. Add a field here (and to RANDOMIZED_FIELDS) to randomise it."""
-        f, p, L = self.data.fields, self.data.params, self.data.physics.layout
-        return {"dof_damping": f["dof_damping"].at[L.target_dof].set(p.damping * damping_scale),
-                "geom_friction": f["geom_friction"].at[:, 0].multiply(jnp.where(L.object_geoms, friction_scale, 1.0))}
 
     # ------------------------------------------------------------------------------------------ helpers
     def _phi(self, q):
@@ -254,31 +236,30 @@ class PullTask:
         return jnp.concatenate(parts).astype(jnp.float32)
 
     def _privileged(self, info, k: Kinematics) -> jnp.ndarray:
-        return jnp.concatenate([jnp.stack([info["damping_scale"], info["friction_scale"]]), self._load(k)])
+        return jnp.concatenate([randomize.privileged(info["scales"]), self._load(k)])
 
-    def _sample_scales(self, key):
-        c = self.config
-        k1, k2 = jax.random.split(key)
-        damp = jax.random.uniform(k1, (), minval=c.damping_range[0], maxval=c.damping_range[1])
-        fric = jnp.float32(1.0) if c.friction_range is None else jax.random.uniform(
-            k2, (), minval=c.friction_range[0], maxval=c.friction_range[1])
-        return damp, fric
+    def _aux(self, info) -> jnp.ndarray:
+        q, dmax = info["q_ring"], info["d_ring"].max()
+        return jnp.stack([q[-1] - q[0], dmax, (dmax > self.config.d_detach).astype(jnp.float32),
+                          info["e_ring"].max()]).astype(jnp.float32)
 
     # --------------------------------------------------------------------------------------------- API
     def reset(self, key: jax.Array, damping_scale: jax.Array | float | None = None) -> State:
-        """A new episode at the expert grasp state (post-settle). The damping multiplier is sampled from
-        ``damping_range`` (training) unless ``damping_scale`` (or ``config.damping_fixed``) fixes it; a fixed
-        multiplier is kept by every automatic reset of that world (evaluation cells)."""
+        """A new episode at the expert grasp state (post-settle). The randomised multipliers are drawn
+        (``randomize.sample``); the damping multiplier is fixed instead by ``damping_scale`` (or
+        ``config.damping_fixed``), and a fixed multiplier is kept by every automatic reset of that world
+        (evaluation cells)."""
         key, sub = jax.random.split(key)
-        damp, fric = self._sample_scales(sub)
+        scales = randomize.sample(sub, self.config)
         if damping_scale is None and self.config.damping_fixed is not None:
             damping_scale = self.config.damping_fixed
         fixed = damping_scale is not None
         if fixed:
-            damp = jnp.asarray(damping_scale, jnp.float32)
-        return self._reset(key, damp, fric, jnp.bool_(fixed))
+            scales[randomize.DAMPING] = jnp.asarray(damping_scale, jnp.float32)
+        return self.reset_world(key, scales, jnp.bool_(fixed))
 
-    def _reset(self, key, damp, fric, fixed) -> State:
+    def reset_world(self, key: jax.Array, scales: dict, fixed: jax.Array) -> State:
+        """A new episode with these multipliers (``fixed``: the damping multiplier survives automatic resets)."""
         c = self.config
         key, k_start = jax.random.split(key)
         start = jax.random.randint(k_start, (), 0, self.num_starts)
@@ -291,14 +272,13 @@ class PullTask:
         d = jnp.linalg.norm(k.handle_pos - k.palm).astype(jnp.float32)
         K1 = c.aux_window + 1
         info = {
-            "rng": key, "step": jnp.int32(0), "damping_scale": jnp.asarray(damp, jnp.float32),
-            "friction_scale": jnp.asarray(fric, jnp.float32), "fixed_damping": fixed,
-            "armed": d <= c.d_detach, "q_prev": k.obj_q.astype(jnp.float32), "ctrl": ctrl,
+            "rng": key, "step": jnp.int32(0), "scales": {n: jnp.asarray(v, jnp.float32) for n, v in scales.items()},
+            "fixed_damping": fixed, "armed": d <= c.d_detach, "q_prev": k.obj_q.astype(jnp.float32), "ctrl": ctrl,
             "d_ring": jnp.full((K1,), d), "q_ring": jnp.full((K1,), k.obj_q, jnp.float32),
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
-            # reward-stage rings of 2K+1 and the ARAM / Reconfig state (facts §5); lambda is set by the trainer
+            # reward-stage rings of 2K+1 and the ARAM / Reconfig state (facts §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
-            "stall": jnp.int32(0), "cooldown": jnp.int32(0), "aram_lambda": jnp.float32(0.0),
+            "stall": jnp.int32(0), "cooldown": jnp.int32(0),
         }
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k),
                   step=info["step"])
@@ -308,10 +288,16 @@ class PullTask:
         return State(physics=ps, obs=obs, reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
                      truncated=jnp.bool_(False), final_obs=obs, metrics=metrics, info=info)
 
-    def _aux(self, info) -> jnp.ndarray:
-        q, dmax = info["q_ring"], info["d_ring"].max()
-        return jnp.stack([q[-1] - q[0], dmax, (dmax > self.config.d_detach).astype(jnp.float32),
-                          info["e_ring"].max()]).astype(jnp.float32)
+    def restart(self, state: State) -> State:
+        """The next episode of a world: fresh multipliers from the world's rng, its damping multiplier kept when
+        fixed (an evaluation cell)."""
+        info = state.info
+        key, sub, sub2 = jax.random.split(info["rng"], 3)
+        scales = randomize.sample(sub, self.config)
+        scales[randomize.DAMPING] = jnp.where(info["fixed_damping"], info["scales"][randomize.DAMPING],
+                                              scales[randomize.DAMPING])
+        fresh = self.reset_world(sub2, scales, info["fixed_damping"])
+        return fresh.replace(info={**fresh.info, "rng": key})
 
     def step(self, state: State, action: jnp.ndarray) -> State:
         """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits)."""
@@ -328,72 +314,76 @@ class PullTask:
         a = jnp.clip((ctrl - k0.hand_q) / self.config.alpha, -1.0, 1.0)
         return self._advance(state, ctrl, a)
 
-    def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray) -> State:
-        c, p, info = self.config, self.params, state.info
-        ps = self.backend.step(self.data.physics, state.physics, ctrl,
-                               self.world_fields(info["damping_scale"], info["friction_scale"]))
+    # ----------------------------------------------------------------- the step: physics -> ... -> obs
+    def _physics(self, state: State, ctrl: jnp.ndarray):
+        """Substeps with PD targets ``ctrl`` in this world's model fields; a non-finite world reads as zeros."""
+        info = state.info
+        fields = randomize.world_fields(info["scales"], self.data.fields, self.params.damping,
+                                        self.data.physics.layout)
+        ps = self.backend.step(self.data.physics, state.physics, ctrl, fields)
         k = self.kinematics(ps)
         finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(x)) for x in jax.tree.leaves(k)]))
-        k = jax.tree.map(lambda x: jnp.where(finite, x, 0.0), k)
+        return ps, jax.tree.map(lambda x: jnp.where(finite, x, 0.0), k), finite
 
-        rel = k.handle_pos - k.palm
-        d = jnp.linalg.norm(rel)
+    def _events(self, info: dict, k: Kinematics, finite: jnp.ndarray) -> Events:
+        """Success, detachment (once armed: paper App. A, facts §4), the time limit."""
+        c, p = self.config, self.params
+        d = jnp.linalg.norm(k.handle_pos - k.palm)
         q = k.obj_q.astype(jnp.float32)
         success = q >= p.q_done
         detach = info["armed"] & (d > c.d_detach) & ~success
         step = info["step"] + 1
         terminated = success | detach | ~finite
-        truncated = (step >= c.episode_length) & ~terminated
-        terms = reward_terms(c.reward, a, d, q - info["q_prev"], success.astype(jnp.float32),
-                             detach.astype(jnp.float32), k.force[:3])
+        return Events(d=d, q=q, success=success, detach=detach, terminated=terminated,
+                      truncated=(step >= c.episode_length) & ~terminated, step=step)
+
+    def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray):
+        """r_t (paper eq. totalreward, with ARAM / Reconfig when configured) and the reward stage's new state."""
+        c, p, info = self.config, self.params, state.info
+        terms = reward_terms(c.reward, a, ev.d, ev.q - info["q_prev"], ev.success.astype(jnp.float32),
+                             ev.detach.astype(jnp.float32), k.force[:3])
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
-        d_long, q_long = ring(info["d_long"], d), ring(info["q_long"], q)
+        d_long, q_long = ring(info["d_long"], ev.d), ring(info["q_long"], ev.q)
         stall, cooldown = info["stall"], info["cooldown"]
         delta, K = p.q_goal - p.q_start, c.aux_window
         if c.reward.aram is not None:
-            terms["aram"], stall = aram_penalty(c.reward.aram, info["aram_lambda"], stall, d, a,
-                                                q - q_long[-1 - K], delta, p.revolute)
+            terms["aram"], stall = aram_penalty(c.reward.aram, p.aram_lambda, stall, ev.d, a,
+                                                ev.q - q_long[-1 - K], delta, p.revolute)
         if c.reward.reconfig is not None:
             prev_a = state.obs.history[-1, self.action_size:2 * self.action_size]
             terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, prev_a,
                                                          k.hand_qd, delta, K)
         reward = jnp.where(finite, sum(terms.values()), 0.0).astype(jnp.float32)
+        return reward, {"d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
 
+    def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray) -> State:
+        c, info = self.config, state.info
+        ps, k, finite = self._physics(state, ctrl)
+        ev = self._events(info, k, finite)
+        reward, reward_state = self._reward(state, a, k, ev, finite)
+        # observation
+        ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         e = (ctrl - k.hand_q).astype(jnp.float32)
-        token = self._token(e, a, k)
-        history = jnp.concatenate([state.obs.history[1:], token[None]], axis=0)
+        history = jnp.concatenate([state.obs.history[1:], self._token(e, a, k)[None]], axis=0)
         ep_return = info["episode_return"] + reward
-        new_info = {**info, "step": step, "armed": info["armed"] | (d <= c.d_detach), "q_prev": q, "ctrl": ctrl,
-                    "d_ring": ring(info["d_ring"], d), "q_ring": ring(info["q_ring"], q),
-                    "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)), "episode_return": ep_return,
-                    "d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
+        new_info = {**info, **reward_state, "step": ev.step, "armed": info["armed"] | (ev.d <= c.d_detach),
+                    "q_prev": ev.q, "ctrl": ctrl, "d_ring": ring(info["d_ring"], ev.d),
+                    "q_ring": ring(info["q_ring"], ev.q), "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)),
+                    "episode_return": ep_return}
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(new_info),
-                  privileged=self._privileged(new_info, k), step=step)
-        done = terminated | truncated
+                  privileged=self._privileged(new_info, k), step=ev.step)
         metrics = {
-            "success": success.astype(jnp.float32), "progress": self.progress(q), "detach": detach.astype(jnp.float32),
-            "truncated": truncated.astype(jnp.float32), "action_abs_max": jnp.max(jnp.abs(a)),
-            "active_abs_max": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)), "action_l2": jnp.linalg.norm(a),
-            "palm_dist": d.astype(jnp.float32), "reward": reward,
+            "success": ev.success.astype(jnp.float32), "progress": self.progress(ev.q),
+            "detach": ev.detach.astype(jnp.float32), "truncated": ev.truncated.astype(jnp.float32),
+            "action_abs_max": jnp.max(jnp.abs(a)), "active_abs_max": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
+            "action_l2": jnp.linalg.norm(a), "palm_dist": ev.d.astype(jnp.float32), "reward": reward,
             "nonfinite": (~finite).astype(jnp.float32), "episode_return": ep_return,
-            "episode_length": step.astype(jnp.float32), "q": q,
+            "episode_length": ev.step.astype(jnp.float32), "q": ev.q,
         }
-        new = State(physics=ps, obs=obs, reward=reward, done=done, terminated=terminated, truncated=truncated,
-                    final_obs=obs, metrics=metrics, info=new_info)
-        # Automatic reset of a finished world (the returned reward/done/metrics belong to the finished step).
-        key, sub, sub2 = jax.random.split(info["rng"], 3)
-        damp, fric = self._sample_scales(sub)
-        damp = jnp.where(info["fixed_damping"], info["damping_scale"], damp)
-        fresh = self._reset(sub2, damp, fric, info["fixed_damping"])
-        new = new.replace(info={**new.info, "rng": key})
-        pick = lambda x, y: jnp.where(done, x, y)  # noqa: E731
-        keep = {"rng": key, "aram_lambda": info["aram_lambda"]}  # lambda_ARAM survives resets (facts §4)
-        return new.replace(physics=jax.tree.map(pick, fresh.physics, new.physics),
-                           obs=jax.tree.map(pick, fresh.obs, new.obs),
-                           info=jax.tree.map(pick, {**fresh.info, **keep}, new.info))
+        return State(physics=ps, obs=obs, reward=reward, done=ev.terminated | ev.truncated, terminated=ev.terminated,
+                     truncated=ev.truncated, final_obs=obs, metrics=metrics, info=new_info)
 
 
-def make_batched(task: PullTask):
+def make_batched(env):
     """(reset, step) over a leading world axis: ``reset(keys[N]) -> State[N]``, ``step(State[N], a[N, 51])``."""
-    return jax.vmap(task.reset), jax.vmap(task.step)
-
+    return jax.vmap(env.reset), jax.vmap(env.step)

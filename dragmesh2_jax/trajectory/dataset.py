@@ -18,7 +18,10 @@ from collections import Counter, defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
 from dragmesh2_jax.assets.gapartnet import URDF_CANDIDATES, load_gapartnet
+from dragmesh2_jax.assets.procedural import PAPER_TABLE1, synthesize_table1
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.trajectory.generator import GeneratorParams, generate
@@ -98,8 +101,6 @@ def build_dataset(objects: list[str | Path], out: str | Path, params: GeneratorP
     out = Path(out)
     objects = list(objects)
     if procedural:
-        from dragmesh2_jax.assets.procedural import synthesize_table1
-
         objects += synthesize_table1(procedural, seed, out / "objects")
     if not objects:
         raise DragMeshError("no objects given (object folders and/or a number of procedural objects)")
@@ -114,8 +115,6 @@ def build_dataset(objects: list[str | Path], out: str | Path, params: GeneratorP
         else:
             todo.append((folder, sid, rpath))
     if todo:
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
         with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
                       disable=not progress, transient=False) as bar:
             task = bar.add_task("trajectories", total=len(todo))
@@ -144,8 +143,6 @@ def write_summary(records: list[dict], out: Path) -> Path:
     by_cat: dict[str, list[dict]] = defaultdict(list)
     for r in records:
         by_cat[r["category"] or "(unreadable)"].append(r)
-    from dragmesh2_jax.assets.procedural import PAPER_TABLE1
-
     lines = ["# Trajectory dataset", "", "| Category | #Objects | #Traj. (passed) | #Failed | pass rate | s / traj. | "
              "paper (Table 1) |", "|---|---|---|---|---|---|---|"]
     for cat in sorted(by_cat, key=lambda c: -len(by_cat[c])):

@@ -29,6 +29,7 @@ from dragmesh2_jax.io import atomic_write_text
 
 FORMAT = "dragmesh2-trajectory"
 VERSION = 1
+RHO = 0.5  # the paper's success-threshold fraction (Table 7; facts §4)
 PHASES = ("approach", "grasp", "drag", "release")
 _VECTORS = {"virtual_xyz": 3, "wrist_rpy": 3, "finger_dofs": 45, "wrist_pos": 3, "wrist_rot": 4}
 
@@ -63,7 +64,6 @@ class Frame:
 class Trajectory:
     frames: tuple[Frame, ...]
     header: dict = field(default_factory=dict)
-    rho: float = 0.5  # success-threshold fraction (paper Table 7)
 
     def __post_init__(self):
         if not self.frames:
@@ -101,10 +101,14 @@ class Trajectory:
     def q_max(self) -> float:
         return float(self.target_q.max())
 
+    def q_done_at(self, rho: float) -> float:
+        """Success threshold q_done = q_min + rho (q_max - q_min)."""
+        return self.q_min + rho * (self.q_max - self.q_min)
+
     @property
     def q_done(self) -> float:
-        """Success threshold q_done = q_min + rho (q_max - q_min)."""
-        return self.q_min + self.rho * (self.q_max - self.q_min)
+        """The paper's success threshold (rho = 0.5)."""
+        return self.q_done_at(RHO)
 
     @property
     def drag_start(self) -> int:

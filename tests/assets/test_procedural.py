@@ -93,8 +93,8 @@ def test_cli_synth(tmp_path, capsys):
 def test_a_door_with_a_round_knob_loads_and_its_expert_drag_opens_it(tmp_path):
     """A frame, a tall hinged panel and a round knob (GAPartNet's Door category): the knob is the handle, the
     panel collides near it, the generated trajectory passes the gate and tracking it opens the door at x1."""
-    from dragmesh2_jax.baselines.tracking import track
-    from dragmesh2_jax.runs import load_task
+    from dragmesh2_jax.evaluation.evaluate import track
+    from dragmesh2_jax.runs.build import load_task
 
     folder = procedural.write_object(procedural.make_object("door", 0), tmp_path / "door", "door")
     obj = load_gapartnet(folder)

@@ -8,8 +8,8 @@ import numpy as np
 
 from dragmesh2_jax.baselines.brax_ppo import BRAX_STATE_ONLY, brax_ppo_kwargs, train_brax_ppo
 from dragmesh2_jax.evaluation.evaluate import evaluate
+from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.ppo.config import PPOConfig
-from dragmesh2_jax.runs import eval_task
 from dragmesh2_jax.task.brax_env import BraxPullEnv
 
 
@@ -37,7 +37,8 @@ def test_brax_ppo_trains_state_only_and_our_evaluator_scores_it(drawer_task):
     config = dataclasses.replace(PPOConfig(), num_envs=4, rollout_len=8, epochs=2)
     controller, metrics = train_brax_ppo(drawer_task, config)
     assert controller.name == BRAX_STATE_ONLY and np.isfinite(metrics["training/policy_loss"])
-    res = evaluate(eval_task(drawer_task), controller, [1.0, 4.0], ["det", "stoch"], episodes=2)
+    protocol = EvalProtocol(dampings=(1.0, 4.0), episodes=2)
+    res = evaluate(protocol.task(drawer_task), controller, protocol)
     assert [(c["mode"], c["damping"]) for c in res["cells"]] == [("det", 1.0), ("det", 4.0), ("stoch", 1.0),
                                                                 ("stoch", 4.0)]
     assert all(np.isfinite(c["return_mean"]) and c["steps_mean"] >= 1 for c in res["cells"])

@@ -6,7 +6,7 @@ from dragmesh2_jax.assets import gripper
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, jaw_frame, parallel_jaw, primitive_plan
 from dragmesh2_jax.evaluation.evaluate import evaluate
-from dragmesh2_jax.runs import eval_task
+from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from tests.conftest import installed_command
 
 
@@ -26,8 +26,9 @@ def test_the_gripper_task_and_plan(drawer_task):
 
 
 def test_it_opens_the_procedural_drawer_at_x1(drawer_task, capsys):
-    task, controller = parallel_jaw(eval_task(drawer_task, exact_reset=True))
-    res = evaluate(task, controller, [1.0], ["det"], episodes=2)
+    protocol = EvalProtocol(dampings=(1.0,), modes=("det",), episodes=2, starts=None)
+    task, controller = parallel_jaw(protocol.task(drawer_task))
+    res = evaluate(task, controller, protocol)
     (cell,) = res["cells"]
     assert res["method"] == PARALLEL_JAW and cell["success_rate"] == 1.0 and cell["detach_rate"] == 0.0
     dragmesh2 = installed_command()  # the same through the command, from the protocol's perturbed starts

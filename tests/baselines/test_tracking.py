@@ -1,8 +1,8 @@
 """``tracking_delta``: the expert drag through the learned policies' action interface (target = q + alpha a)."""
 
 from dragmesh2_jax.baselines.tracking import tracking_delta_controller
-from dragmesh2_jax.evaluation.evaluate import make_rollout
-from dragmesh2_jax.runs import load_task
+from dragmesh2_jax.evaluation.rollout import cells, rollout
+from dragmesh2_jax.runs.build import load_task
 
 
 def test_the_action_increments_suffice_to_open_a_door_at_x4(gapartnet_dir):
@@ -11,6 +11,6 @@ def test_the_action_increments_suffice_to_open_a_door_at_x4(gapartnet_dir):
     task = load_task(str(gapartnet_dir / "45780"), None, backend="mujoco")
     c = tracking_delta_controller(task)
     assert c.controls == "actions"
-    cells = make_rollout(task, c.make_policy(True), [1.0, 4.0], 1, c.controls, key=c.key)(c.params, 0)
-    assert [cell["success_rate"] for cell in cells] == [1.0, 1.0]
-    assert cells[1]["clip099"] == 1.0
+    out = cells(rollout(task, c.make_policy(True), c.params, [1.0, 4.0], 1, 0, c.controls, key=c.key), [1.0, 4.0], 1)
+    assert [cell["success_rate"] for cell in out] == [1.0, 1.0]
+    assert out[1]["clip099"] == 1.0

@@ -1,12 +1,22 @@
 """The evaluation protocol: rates with Wilson intervals, clip099 over all and over active DoFs, a policy
 function as the only interface, det cells that are distributions from perturbed starts."""
 
+import dataclasses
+
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from dragmesh2_jax.evaluation.evaluate import markdown_table, rollout_cells, wilson_interval
-from dragmesh2_jax.runs import eval_task
+from dragmesh2_jax.assets.hand import active_dofs
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
+from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
+from dragmesh2_jax.evaluation.rollout import cells, frames, rollout, trace, wilson_interval
+from dragmesh2_jax.policies.controller import Controller
+
+
+def rollout_cells(task, policy, params, dampings, episodes, seed=42):
+    return cells(rollout(task, policy, params, dampings, episodes, seed), dampings, episodes)
 
 
 def test_wilson_interval():
@@ -20,8 +30,6 @@ def test_wilson_interval():
 
 def _pull_policy(task, locked_value):
     """A controller as a policy function: pull along the handle normal; locked axes get ``locked_value``."""
-    from dragmesh2_jax.assets.hand import active_dofs
-
     a = np.where(active_dofs(), 0.0, locked_value).astype(np.float32)
     a[:3] = 0.5 * task.scene.handle.normal
 
@@ -32,7 +40,7 @@ def _pull_policy(task, locked_value):
 
 
 def test_clip099_counts_all_channels_and_active_ones_separately(drawer_task):
-    task = eval_task(drawer_task)
+    task = PAPER.task(drawer_task)
     cells = rollout_cells(task, _pull_policy(task, locked_value=1.0), jnp.float32(1.0), [1.0], episodes=4)
     c = cells[0]
     assert c["clip099"] == 1.0  # a saturated locked axis saturates the all-channel figure...
@@ -42,7 +50,7 @@ def test_clip099_counts_all_channels_and_active_ones_separately(drawer_task):
 
 
 def test_cells_report_rates_with_intervals(drawer_task):
-    task = eval_task(drawer_task)
+    task = PAPER.task(drawer_task)
     cells = rollout_cells(task, _pull_policy(task, 0.0), jnp.float32(1.0), [1.0, 4.0], episodes=6, seed=3)
     assert [c["damping"] for c in cells] == [1.0, 4.0]
     for c in cells:
@@ -53,3 +61,38 @@ def test_cells_report_rates_with_intervals(drawer_task):
     md = markdown_table({"cells": [{**c, "mode": "det"} for c in cells],
                          "robustness": {"det": {"mean_success": 0.5, "worst_success": 0.0, "clip099_active": 0.0}}})
     assert "clip099 active" in md and "[" in md
+
+
+def test_cells_traces_and_frames_are_views_of_one_rollout(drawer_task):
+    """A fixed-length rollout's first episodes give the same cells as the early-stopping one; its trace and
+    frames read the same steps."""
+    task = EvalProtocol(starts=None).task(drawer_task)
+    policy, T = _pull_policy(task, 0.0), 40
+    short = rollout(task, policy, jnp.float32(1.0), [1.0, 4.0], 1, seed=3)
+    full = rollout(task, policy, jnp.float32(1.0), [1.0, 4.0], 1, seed=3, steps=T)
+    finished = short["acc"]["steps"] < T  # worlds whose first episode ended within the fixed length
+    for k in ("steps", "success", "detach"):
+        np.testing.assert_array_equal(short["acc"][k][finished], full["acc"][k][finished])
+    tr, fr = trace(full), frames(full, [1.0, 4.0])
+    assert tr["q"].shape == (T, 2) and tr["hand_q"].shape == (T, 2, 51)
+    for i, f in enumerate(fr):
+        assert f["steps"] == int(min(full["acc"]["steps"][i], T)) and f["hand_q"].shape == (f["steps"], 51)
+        np.testing.assert_array_equal(f["hand_q"], tr["hand_q"][: f["steps"], i])
+
+
+def test_a_protocol_is_one_value_that_names_its_files():
+    assert PAPER.dampings == (1.0, 2.0, 4.0) and PAPER.modes == ("det", "stoch") and PAPER.episodes == 20
+    names = {p.name for p in (PAPER, dataclasses.replace(PAPER, dampings=(1.0, 8.0)), EvalProtocol(starts=None),
+                              dataclasses.replace(PAPER, episodes=100), dataclasses.replace(PAPER, seed=1))}
+    assert len(names) == 5 and all("/" not in n for n in names)
+    for bad in ({"modes": ("greedy",)}, {"episodes": 0}, {"dampings": (-1.0,)}):
+        with pytest.raises(DragMeshError):
+            EvalProtocol(**bad)
+
+
+def test_evaluate_needs_the_protocols_starts(drawer_task):
+    c = Controller("pull", lambda det: _pull_policy(drawer_task, 0.0), jnp.float32(1.0))
+    with pytest.raises(ValueError, match="protocol"):
+        evaluate(drawer_task, c, PAPER)  # the training task's exact starts are not the protocol's
+    res = evaluate(PAPER.task(drawer_task), c, dataclasses.replace(PAPER, episodes=2, modes=("det",)))
+    assert [cell["damping"] for cell in res["cells"]] == [1.0, 2.0, 4.0] and res["protocol"]["episodes"] == 2

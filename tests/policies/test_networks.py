@@ -1,16 +1,27 @@
 """Policy networks: GLA matches a NumPy reference; every encoder builds; aux gradients reach only the
 temporal branch and the aux head; the aux targets are structurally not an input."""
 
+import inspect
 from types import SimpleNamespace
 
+import flax.linen as nn
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from dragmesh2_jax.policies.gla import GatedLinearAttention, gla_last, gla_recurrent
-from dragmesh2_jax.policies.methods import METHODS, get_method
-from dragmesh2_jax.policies.networks import ENCODERS, ActorCritic
+from dragmesh2_jax.policies.methods import METHODS, get_method, task_overrides
+from dragmesh2_jax.policies.networks import (
+    ENCODERS,
+    MLP,
+    ActorCritic,
+    NetworkConfig,
+    TemporalEncoder,
+    make_inference_fn,
+)
+from dragmesh2_jax.ppo import train as train_lib
+from dragmesh2_jax.task.protocol import Obs
 
 
 def gla_numpy(q, k, v, g):
@@ -125,8 +136,7 @@ def test_privileged_critic_sees_what_the_actor_never_does():
 
 def test_methods_are_presets():
     assert {"pica", "state_only", "flat_history", "gru", "transformer", "gla_only", "pica_flat"} <= set(METHODS)
-    from dragmesh2_jax.policies.methods import task_overrides
-
+    assert all(m.network == NetworkConfig() for m in METHODS.values())  # the paper's sizes (Table 8)
     load = get_method("pica_load")
     assert load.encoder == "gla" and load.physical_signals and load.critic == "privileged"
     over = task_overrides(load)
@@ -156,34 +166,27 @@ def test_aux_loss_gradients_reach_only_the_temporal_branch_and_aux_head():
 
 
 def test_aux_targets_are_not_a_network_input():
-    """The network's only inputs are obs.state, obs.history and obs.privileged; the aux block cannot reach it."""
-    import inspect
-
-    from dragmesh2_jax.ppo.train import Trainer
-    from dragmesh2_jax.task.env import Obs
-
+    """The network's only inputs are obs.state, obs.history and obs.privileged; the aux block cannot reach it
+    (neither the training program's inputs nor the exported policy)."""
     assert list(inspect.signature(ActorCritic.__call__).parameters) == ["self", "state", "history", "privileged"]
-    src = inspect.getsource(Trainer.inputs)
-    assert "obs.aux" not in src
+    assert "obs.aux" not in inspect.getsource(train_lib._inputs)
     obs = Obs(state=jnp.ones((2, 120)), history=jnp.ones((2, 16, 102)), aux=jnp.zeros((2, 4)),
               privileged=jnp.zeros((2, 24)), step=jnp.zeros(2, jnp.int32))
     net = ActorCritic(encoder="gla")
     params = net.init(jax.random.PRNGKey(0), obs.state, obs.history, obs.privileged, method=ActorCritic.init_all)
-    trainer = SimpleNamespace(net=net, config=SimpleNamespace(normalize_obs=False))
-    trainer.inputs = lambda ts, o: Trainer.inputs(trainer, ts, o)
-    out1 = Trainer.apply(trainer, params, None, obs)
-    out2 = Trainer.apply(trainer, params, None, obs.replace(aux=jnp.full((2, 4), 1e6)))
+    program = SimpleNamespace(config=SimpleNamespace(normalize_obs=False))
+    out1 = net.apply(params, *train_lib._inputs(program, None, obs))
+    out2 = net.apply(params, *train_lib._inputs(program, None, obs.replace(aux=jnp.full((2, 4), 1e6))))
     np.testing.assert_array_equal(out1[0], out2[0])
     np.testing.assert_array_equal(out1[2], out2[2])
+    policy = make_inference_fn(net, normalize_obs=False)(True)
+    np.testing.assert_array_equal(policy({"net": params}, obs, None),
+                                  policy({"net": params}, obs.replace(aux=jnp.full((2, 4), 1e6)), None))
 
 
 def test_transformer_computes_only_the_last_token_of_a_causal_block():
     """One pre-LN causal block whose last token's output is z_hist: computing that token alone (its query
     against every key) equals the full block's last row, and every token of the window reaches it."""
-    import flax.linen as nn
-
-    from dragmesh2_jax.policies.networks import MLP, TemporalEncoder
-
     class FullBlock(nn.Module):
         @nn.compact
         def __call__(self, history):

@@ -4,17 +4,18 @@ in its first epochs (the collapse to holding still needs every early episode to 
 import numpy as np
 
 from dragmesh2_jax.assets.procedural import HEAVY_DRAWER, packaged_object
-from dragmesh2_jax.ppo.runner import RobustSelection, train
-from dragmesh2_jax.runs import make_trainer
+from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.spec import method_spec
 
 EPOCHS = 6
 
 
 def test_pica_opens_the_heavy_drawer_in_its_first_epochs(tmp_path):
-    trainer = make_trainer(str(packaged_object(HEAVY_DRAWER)), None, "pica", backend="mujoco", epochs=EPOCHS,
-                           seed=0)
-    _, rows = train(trainer, tmp_path / "run", str(packaged_object(HEAVY_DRAWER)), progress=False,
-                    save_every=EPOCHS, selection=RobustSelection(every=0))
+    """The paper's PICA, network and batch (64 worlds x 32 steps), from seed 0."""
+    spec = method_spec("pica", str(packaged_object(HEAVY_DRAWER)), {"epochs": EPOCHS, "seed": 0}, backend="mujoco")
+    _, _, (rows,) = start_or_resume(spec, [RunDir(tmp_path / "run")], resume=False, save_every=EPOCHS,
+                                    selection=Selection(every=0), progress=False)
     success = np.array([r["success"] for r in rows])
     detach = np.array([r["detach"] for r in rows])
     progress = np.array([r["progress"] for r in rows])

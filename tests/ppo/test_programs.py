@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -14,18 +15,15 @@ import pytest
 
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.procedural import default_object, synthesize
-from dragmesh2_jax.policies.methods import get_method
-from dragmesh2_jax.ppo import train as train_lib
-from dragmesh2_jax.ppo.config import PPOConfig
-from dragmesh2_jax.ppo.runner import RobustSelection, take_run, train_seeds
-from dragmesh2_jax.ppo.train import Trainer
-from dragmesh2_jax.runs import load_task
+from dragmesh2_jax.ppo.train import epoch_jit, epoch_runs, init_jit, init_runs, make_train, seed_keys, take_run
+from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.trajectory.generator import generate
+from tests.conftest import tiny_program, tiny_spec
 
-TINY = PPOConfig(num_envs=2, rollout_len=4, update_epochs=1, epochs=2)
 OBJ = str(default_object())
 
 
@@ -35,23 +33,26 @@ def _close(a, b, tol=2e-3):
         np.testing.assert_allclose(np.asarray(x, np.float64), np.asarray(y, np.float64), rtol=tol, atol=tol)
 
 
-def _cache_size(name: str, trainer: Trainer) -> int:
-    return train_lib._PROGRAMS[(name, trainer.signature())]._cache_size()
+def _first_epochs(programs):
+    """One epoch of each program from its own init; the compiled epochs jax's cache gained for them."""
+    before = epoch_jit._cache_size()
+    states = []
+    for p in programs:
+        ts, m = epoch_jit(p, p.task.data, init_jit(p, p.task.data, jax.random.PRNGKey(0)))
+        assert np.isfinite(float(m["loss"]))
+        states.append(ts)
+    return states, epoch_jit._cache_size() - before
 
 
 def test_objects_of_the_same_structure_share_one_compiled_epoch(tmp_path):
     """Two procedural doors of different sizes (other meshes, other joint limits) and one PPO epoch program."""
     a, b = synthesize("door_cabinet", 2, 0, tmp_path)
-    trainers = [Trainer(load_task(str(p), None, backend="mujoco"), get_method("pica"), TINY) for p in (a, b)]
-    assert trainers[0].signature() == trainers[1].signature()
-    states = []
-    for t in trainers:
-        ts, m = t.epoch(t.init())
-        states.append(ts)
-        assert np.isfinite(float(m["loss"]))
-    assert _cache_size("epoch", trainers[0]) == 1  # compiled once, run for both objects
+    programs = [tiny_program("pica", str(p)) for p in (a, b)]
+    assert programs[0] == programs[1] and programs[0].task is not programs[1].task
+    states, compiled = _first_epochs(programs)
+    assert compiled <= 1  # compiled once (or found compiled), run for both objects
     # each ran on its own object: the handle the observation reports is that object's
-    for t, ts in zip(trainers, states, strict=True):
+    for t, ts in zip(programs, states, strict=True):
         k = jax.vmap(t.task.kinematics)(ts.env_state.physics)
         np.testing.assert_allclose(np.asarray(ts.env_state.obs.state[:, 102:105]), np.asarray(k.handle_pos),
                                    atol=1e-5)
@@ -60,14 +61,15 @@ def test_objects_of_the_same_structure_share_one_compiled_epoch(tmp_path):
 
 
 def test_seed_vmapped_training_equals_separate_runs():
-    trainer = Trainer(load_task(OBJ, None, backend="mujoco"), get_method("pica"), TINY)
-    runs = trainer.init_runs([0, 1])
+    p = tiny_program()
+    data = p.task.data
+    runs = init_runs(p, data, seed_keys([0, 1]))
     for _ in range(2):
-        runs, m_runs = trainer.epoch_runs(runs)
+        runs, m_runs = epoch_runs(p, data, runs)
     for i, seed in enumerate((0, 1)):
-        ts = trainer.init(seed)
+        ts = init_jit(p, data, seed_keys([seed])[0])
         for _ in range(2):
-            ts, m = trainer.epoch(ts)
+            ts, m = epoch_jit(p, data, ts)
         _close(take_run(runs, i).params, ts.params)
         np.testing.assert_allclose(float(m_runs["loss"][i]), float(m["loss"]), rtol=2e-3)
     assert not np.allclose(np.asarray(m_runs["loss"][0]), np.asarray(m_runs["loss"][1]))  # seeds differ
@@ -76,18 +78,14 @@ def test_seed_vmapped_training_equals_separate_runs():
 SHARDED = textwrap.dedent("""
     import json, sys
     import jax, numpy as np
-    from dragmesh2_jax.policies.methods import get_method
-    from dragmesh2_jax.ppo.config import PPOConfig
-    from dragmesh2_jax.ppo.runner import run_mesh
-    from dragmesh2_jax.ppo.train import Trainer
-    from dragmesh2_jax.runs import load_task
+    from dragmesh2_jax.ppo.train import epoch_runs, init_runs, run_mesh, seed_keys
+    from tests.conftest import tiny_program
 
-    trainer = Trainer(load_task(sys.argv[1], None, backend="mujoco"), get_method("pica"),
-                      PPOConfig(num_envs=2, rollout_len=4, update_epochs=1))
+    p = tiny_program(obj=sys.argv[1])
     mesh = run_mesh(4)
-    one = sharded = trainer.init_runs([0, 1, 2, 3])
-    one, m1 = trainer.epoch_runs(one)
-    sharded, m4 = trainer.epoch_runs(sharded, mesh)
+    one = sharded = init_runs(p, p.task.data, seed_keys([0, 1, 2, 3]))
+    one, m1 = epoch_runs(p, p.task.data, one)
+    sharded, m4 = epoch_runs(p, p.task.data, sharded, mesh)
     diff = max(float(np.max(np.abs(np.asarray(a) - np.asarray(b))))
                for a, b in zip(jax.tree.leaves(one.params), jax.tree.leaves(sharded.params)))
     leaf = jax.tree.leaves(sharded.params)[0]
@@ -99,7 +97,8 @@ SHARDED = textwrap.dedent("""
 
 def test_runs_sharded_over_four_devices_equal_one_device():
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=4"}
-    out = subprocess.run([sys.executable, "-c", SHARDED, OBJ], env=env, capture_output=True, text=True, timeout=900)
+    out = subprocess.run([sys.executable, "-c", SHARDED, OBJ], env=env, capture_output=True, text=True, timeout=900,
+                         cwd=Path(__file__).resolve().parents[2])
     assert out.returncode == 0, out.stderr[-3000:]
     r = json.loads(out.stdout.strip().splitlines()[-1])
     assert r["devices"] == 4 and r["mesh"] == 4 and r["shards"] == 4  # the run axis lives on four devices
@@ -108,17 +107,15 @@ def test_runs_sharded_over_four_devices_equal_one_device():
 
 
 def test_multi_seed_run_writes_a_folder_per_seed_and_resumes_exactly(tmp_path):
-    trainer = Trainer(load_task(OBJ, None, backend="mujoco"), get_method("pica"), TINY)
-    quiet = {"progress": False, "save_every": 1, "selection": RobustSelection(every=0)}
-    full, rows = train_seeds(trainer, tmp_path / "full", [3, 4], OBJ, **quiet)
+    quiet = {"progress": False, "save_every": 1, "selection": Selection(every=0)}
+    spec = tiny_spec()
+    runs = lambda name: [RunDir(tmp_path / name / f"seed_{s}") for s in (3, 4)]  # noqa: E731
+    _, full, rows = start_or_resume(spec, runs("full"), [3, 4], resume=False, **quiet)
     assert [len(r) for r in rows] == [2, 2]
-    for seed in (3, 4):
-        run = tmp_path / "full" / f"seed_{seed}"
-        assert json.loads((run / "run.json").read_text())["ppo"]["seed"] == seed
-        assert (run / "checkpoints" / "final" / "env").is_dir()
-    one = Trainer(trainer.task, trainer.method, PPOConfig(**{**TINY.__dict__, "epochs": 1}))
-    train_seeds(one, tmp_path / "cut", [3, 4], OBJ, **quiet)  # "interrupted" after one epoch
-    resumed, rows2 = train_seeds(trainer, tmp_path / "cut", [3, 4], OBJ, resume=True, **quiet)
+    for run, seed in zip(runs("full"), (3, 4), strict=True):
+        assert run.spec().ppo.seed == seed and run.has_checkpoint("final")
+    start_or_resume(spec, runs("cut"), [3, 4], resume=False, epochs=1, **quiet)  # "interrupted" after one epoch
+    _, resumed, rows2 = start_or_resume(None, runs("cut"), resume=True, **quiet)
     for x, y in zip(jax.tree.leaves(full.params), jax.tree.leaves(resumed.params), strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
     assert [r["epoch"] for r in rows2[0]] == [1, 2]
@@ -133,11 +130,9 @@ def test_mjx_model_is_data_same_object_other_damping_shares_the_program():
     for damping in (10.0, 40.0):
         scene = build_scene(obj, SceneConfig(damping=damping))
         tasks.append(PullTask(scene, generate(obj, scene=scene), config))
-    tiny = PPOConfig(num_envs=1, rollout_len=2, update_epochs=1)
-    trainers = [Trainer(t, get_method("state_only"), tiny) for t in tasks]
-    for t in trainers:
-        ts, m = t.epoch(t.init())
-        assert np.isfinite(float(m["loss"]))
-    assert _cache_size("epoch", trainers[0]) == 1
-    damping = [float(t.task.data.physics.model.dof_damping[t.task.scene.ids.target_dof]) for t in trainers]
+    base = tiny_program("state_only", backend="mjx", num_envs=1, rollout_len=2)
+    programs = [make_train(t, base.method, base.config) for t in tasks]
+    _, compiled = _first_epochs(programs)
+    assert compiled == 1
+    damping = [float(p.task.data.physics.model.dof_damping[p.task.scene.ids.target_dof]) for p in programs]
     assert damping == [10.0, 40.0]

@@ -1,26 +1,43 @@
 import pytest
 
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.baselines.tracking import tracking_controller
+from dragmesh2_jax.evaluation.rollout import rollout, trace
+from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.trajectory.generator import generate
+
+#: Control steps the backend parity compares (1 s of the same PD targets from the same start).
+PARITY_STEPS = 60
+
 
 @pytest.fixture(scope="session")
-def tracking_rollouts(gapartnet_dir, tmp_path_factory):
-    """Tracking rollouts of a real object at x1/x2/x4 on both backends, one episode each, computed once per object
-    per session (one MJX compile each): ``tracking_rollouts(oid) -> {backend: trace_rollout(...)}``."""
-    from dragmesh2_jax.assets.gapartnet import load_gapartnet
-    from dragmesh2_jax.baselines.tracking import tracking_controller
-    from dragmesh2_jax.evaluation.evaluate import trace_rollout
-    from dragmesh2_jax.runs import load_task
-    from dragmesh2_jax.trajectory.generator import generate
-    from dragmesh2_jax.trajectory.schema import write_trajectory
-
+def tracking_tasks(gapartnet_dir):
+    """A real object's task on both backends from one generated trajectory, built once per object per session:
+    ``tracking_tasks(oid) -> {backend: task}``."""
     cache = {}
 
     def get(oid):
         if oid not in cache:
-            path = tmp_path_factory.mktemp("traj") / f"{oid}.json"
-            write_trajectory(generate(load_gapartnet(gapartnet_dir / oid)), path)
-            tasks = {b: load_task(str(gapartnet_dir / oid), str(path), backend=b) for b in ("mujoco", "mjx")}
-            cache[oid] = {b: trace_rollout(t, tracking_controller(t), [1.0, 2.0, 4.0], t.config.episode_length)
-                          for b, t in tasks.items()}
+            traj = generate(load_gapartnet(gapartnet_dir / oid))
+            cache[oid] = {b: load_task(str(gapartnet_dir / oid), traj, backend=b) for b in ("mujoco", "mjx")}
+        return cache[oid]
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def tracking_traces(tracking_tasks):
+    """The tracking baseline's first PARITY_STEPS steps at x1/x2/x4 on both backends (``rollout.trace``)."""
+    cache = {}
+
+    def get(oid):
+        if oid not in cache:
+            out = {}
+            for b, t in tracking_tasks(oid).items():
+                c = tracking_controller(t)
+                out[b] = trace(rollout(t, c.make_policy(True), c.params, [1.0, 2.0, 4.0], controls=c.controls,
+                                       steps=PARITY_STEPS, key=c.key))
+            cache[oid] = out
         return cache[oid]
 
     return get

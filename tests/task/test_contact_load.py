@@ -1,15 +1,22 @@
 """Contact-load sensing beyond the paper: the force-aware observation and the privileged critic's inputs,
 on both backends (the sensors agree within a stated tolerance), and the presets that use them train."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.procedural import default_object
-from dragmesh2_jax.runs import load_task, make_trainer
+from dragmesh2_jax.policies.methods import get_method, task_overrides
+from dragmesh2_jax.ppo.train import epoch_jit, init_jit, policy_params
+from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import FORCE_SIZE
+from dragmesh2_jax.task.config import RewardConfig
 from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, make_batched
+from dragmesh2_jax.task.rewards import reward_terms
+from tests.conftest import tiny_program
 
 OBJ = str(default_object())
 
@@ -43,9 +50,8 @@ def test_force_observation_layout_and_privileged_block():
 
 def test_contact_load_preset_trains_on_the_c_backend():
     """pica_load = force-aware observation + privileged critic (+ damping [1, 4], perturbed starts)."""
-    trainer = make_trainer(OBJ, None, "pica_load", "mujoco", num_envs=4, rollout_len=4, epochs=1)
-    ts = trainer.init()
-    ts, m = trainer.epoch(ts)
+    program = tiny_program("pica_load", OBJ)
+    ts, m = epoch_jit(program, program.task.data, init_jit(program, program.task.data, jax.random.PRNGKey(0)))
     assert np.isfinite(float(m["loss"])) and int(ts.epoch) == 1
     assert float(ts.privileged_stats.count) > 1  # the privileged normaliser saw the batch
 
@@ -60,20 +66,15 @@ def test_contact_sensors_agree_between_backends():
     assert np.all(np.abs(fc - fj) <= 2.0 + 0.15 * fc)
     tc, tj = c[..., 6:].sum(-1), j[..., 6:].sum(-1)
     assert np.all(np.abs(tc - tj) <= 0.2 * tc + 1.0)
-    trainer = make_trainer(OBJ, None, "pica_load", "mjx", num_envs=2, rollout_len=2, epochs=1)
-    ts, m = trainer.epoch(trainer.init())  # force-aware observation + privileged critic, trained on MJX
+    program = tiny_program("pica_load", OBJ, "mjx", num_envs=2, rollout_len=2)
+    data = program.task.data  # force-aware observation + privileged critic, trained on MJX
+    ts, m = epoch_jit(program, data, init_jit(program, data, jax.random.PRNGKey(0)))
     assert np.isfinite(float(m["loss"])) and int(ts.epoch) == 1 and float(ts.privileged_stats.count) > 1
-    a = trainer.make_policy(deterministic=True)(trainer.policy_params(ts), ts.env_state.obs, jax.random.PRNGKey(0))
+    a = program.make_policy(True)(policy_params(ts), ts.env_state.obs, jax.random.PRNGKey(0))
     assert a.shape == (2, 51) and np.isfinite(np.asarray(a)).all()
 
 
 def test_load_budget_reward_penalises_only_the_pull_beyond_what_the_grasp_holds():
-    import dataclasses
-
-    from dragmesh2_jax.policies.methods import get_method, task_overrides
-    from dragmesh2_jax.task.config import RewardConfig
-    from dragmesh2_jax.task.rewards import reward_terms
-
     cfg = task_overrides(get_method("pica_grip"))["reward"]
     assert cfg.w_load > 0 and dataclasses.replace(cfg, w_load=0.0) == RewardConfig()  # only the load term differs
     args = (jnp.zeros(51), jnp.float32(0.05), jnp.float32(0.0), jnp.float32(0.0), jnp.float32(0.0))

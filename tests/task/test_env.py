@@ -8,8 +8,12 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import AUX_SIZE, STATE_SIZE, TOKEN_SIZE, PullTask, make_batched
+from dragmesh2_jax.task.protocol import METRICS, observation_spec
+from dragmesh2_jax.task.wrappers import AutoReset
+from dragmesh2_jax.trajectory.schema import read_trajectory
 
 
 def _task(base: PullTask, **changes) -> PullTask:
@@ -17,7 +21,7 @@ def _task(base: PullTask, **changes) -> PullTask:
 
 
 def _rollout(task, actions, scales, seed=0):
-    reset, step = make_batched(task)
+    reset, step = make_batched(AutoReset(task))
     n = len(scales)
     state = jax.jit(reset)(jax.random.split(jax.random.PRNGKey(seed), n), jnp.asarray(scales, jnp.float32))
     first = state
@@ -31,15 +35,18 @@ def _rollout(task, actions, scales, seed=0):
 
 
 def test_reset_and_step_shapes_and_dtypes(drawer_task):
+    """The env protocol: the observation spec without running, every metric name, multipliers per world."""
+    spec = observation_spec(drawer_task)
+    assert spec.state.shape == (STATE_SIZE,) and spec.history.shape == (16, TOKEN_SIZE)
+    assert spec.aux.shape == (AUX_SIZE,)
     reset, step = make_batched(drawer_task)
     s = jax.jit(reset)(jax.random.split(jax.random.PRNGKey(0), 3))
     assert s.obs.state.shape == (3, STATE_SIZE) and s.obs.history.shape == (3, 16, TOKEN_SIZE)
-    assert s.obs.aux.shape == (3, AUX_SIZE)
     s = jax.jit(step)(s, jnp.zeros((3, 51)))
     assert s.obs.state.dtype == jnp.float32 and s.reward.shape == (3,) and s.done.dtype == jnp.bool_
-    assert {"success", "progress", "detach", "action_abs_max", "action_l2", "palm_dist"} <= set(s.metrics)
+    assert set(s.metrics) == set(METRICS)
     # training damping is sampled per world from [1, 2]
-    sc = np.asarray(s.info["damping_scale"])
+    sc = np.asarray(s.info["scales"][randomize.DAMPING])
     assert np.all((sc >= 1) & (sc <= 2)) and len(set(sc.tolist())) == 3
     # the newest history token is [e_t, a_{t-1}] with the action just applied
     np.testing.assert_allclose(s.obs.history[:, -1, 51:], 0.0)
@@ -149,9 +156,33 @@ def test_bad_config_is_rejected_before_compiling(change, fragment):
         TaskConfig(**change)
 
 
-def test_trajectory_of_another_object_is_rejected(drawer_task, shared_dir):
-    from dragmesh2_jax.trajectory.schema import read_trajectory
+def test_rho_sets_the_success_threshold(drawer_task):
+    """q_done = q_min + rho (q_max - q_min) over the trajectory: --task.rho reaches the task."""
+    t = drawer_task.traj
+    for rho in (0.5, 0.8):
+        task = _task(drawer_task, rho=rho)
+        assert float(task.params.q_done) == pytest.approx(t.q_min + rho * (t.q_max - t.q_min), rel=1e-6)
+    assert float(_task(drawer_task, rho=0.8).params.q_done) > float(drawer_task.params.q_done)
 
+
+def test_each_randomised_field_is_one_entry_and_reaches_only_its_field(drawer_task):
+    """world_fields: the damping multiplier scales the target joint's damping only, the friction multiplier the
+    object's colliding geoms' sliding friction only."""
+    d, L = drawer_task.data, drawer_task.data.physics.layout
+    fields = randomize.world_fields({"damping_scale": jnp.float32(3.0), "friction_scale": jnp.float32(0.5)},
+                                    d.fields, d.params.damping, L)
+    assert set(fields) == set(randomize.FIELDS) == {r.field for r in randomize.RANDOMIZERS}
+    damp = np.asarray(fields["dof_damping"])
+    assert damp[int(L.target_dof)] == pytest.approx(3.0 * float(d.params.damping))
+    others = np.arange(len(damp)) != int(L.target_dof)
+    np.testing.assert_array_equal(damp[others], np.asarray(d.fields["dof_damping"])[others])
+    fr, fr0 = np.asarray(fields["geom_friction"]), np.asarray(d.fields["geom_friction"])
+    obj = np.asarray(L.object_geoms)
+    np.testing.assert_allclose(fr[obj, 0], 0.5 * fr0[obj, 0])
+    np.testing.assert_array_equal(fr[~obj], fr0[~obj])
+
+
+def test_trajectory_of_another_object_is_rejected(drawer_task, shared_dir):
     other = read_trajectory(shared_dir / "reference" / "trajectories" / "45661.json")
     with pytest.raises(DragMeshError, match="object joints|moves joint"):
         PullTask(drawer_task.scene, other, drawer_task.config)

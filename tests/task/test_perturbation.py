@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.hand import NUM_VIRTUAL, active_dofs
-from dragmesh2_jax.baselines.tracking import track
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.runs import eval_task, load_task
-from dragmesh2_jax.task.config import EVAL_RESET_NOISE, ResetNoise
+from dragmesh2_jax.evaluation.evaluate import track
+from dragmesh2_jax.evaluation.protocol import EVAL_RESET_NOISE, PAPER, EvalProtocol
+from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.task.config import ResetNoise
 from dragmesh2_jax.task.env import PullTask, make_batched, reset_starts
 from tests.conftest import REAL_OBJECTS
 
@@ -38,13 +39,13 @@ def test_starts_are_seeded_and_bounded(drawer_task):
 
 
 def test_each_reset_draws_one_of_the_perturbed_starts(drawer_task):
-    task = eval_task(drawer_task)
+    task = PAPER.task(drawer_task)
     assert task.config.reset_noise == EVAL_RESET_NOISE and task.num_starts == EVAL_RESET_NOISE.bank
     reset, _ = make_batched(task)
     s = jax.jit(reset)(jax.random.split(jax.random.PRNGKey(0), 8), jnp.ones(8))
     hand = np.asarray(s.obs.state[:, :51])
     assert len({tuple(np.round(h, 6)) for h in hand}) > 4  # different worlds start differently
-    exact = eval_task(drawer_task, exact_reset=True)
+    exact = EvalProtocol(starts=None).task(drawer_task)
     s = jax.jit(make_batched(exact)[0])(jax.random.split(jax.random.PRNGKey(0), 4), jnp.ones(4))
     np.testing.assert_array_equal(np.asarray(s.obs.state[0]), np.asarray(s.obs.state[3]))
 

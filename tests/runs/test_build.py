@@ -4,9 +4,9 @@ import pytest
 
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.procedural import default_object
-from dragmesh2_jax.baselines.tracking import track
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.runs import load_task
+from dragmesh2_jax.evaluation.evaluate import track
+from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask

@@ -1,0 +1,162 @@
+"""The one rollout of the evaluator: ``len(dampings) * episodes`` worlds of a task under a policy, each world's damping
+multiplier fixed, all in one compiled program. Cells, traces and video frames are views of its result.
+
+Without ``steps`` it runs until every world has finished its first episode (at most the episode length) and returns
+per-world accumulations of that first episode (:func:`cells` reads them). With ``steps`` it runs exactly that many
+control steps and also records, per step and world, the object q, the effector q before the step and whether the
+first episode has ended (:func:`trace` and :func:`frames` read those); a world whose episode ended keeps stepping
+from its final state (no reset), counted nowhere.
+
+Compiled rollouts are shared: with a controller ``key`` (what the policy depends on besides its params) and the
+task's signature, every object, checkpoint and seed of the same structure reuses one program (jax's own cache,
+the rollout's description a static argument).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Hashable
+from dataclasses import dataclass
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from dragmesh2_jax.policies.controller import Policy
+from dragmesh2_jax.task.env import PullTask, TaskData
+from dragmesh2_jax.task.protocol import CLIP_LEVEL
+
+ACCUMULATED = ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret")
+
+
+@dataclass(frozen=True, eq=False)
+class Rollout:
+    """What a compiled rollout depends on (hashable by it when ``key`` is given, else by identity)."""
+
+    task: PullTask
+    policy: Policy
+    scales: tuple[float, ...]  # one damping multiplier per world
+    controls: str = "actions"
+    steps: int | None = None
+    key: Hashable | None = None
+
+    def _id(self):
+        return id(self) if self.key is None else (self.key, self.task.signature(), self.scales, self.controls,
+                                                  self.steps)
+
+    def __hash__(self):
+        return hash(self._id())
+
+    def __eq__(self, other):
+        return isinstance(other, Rollout) and self._id() == other._id()
+
+
+@functools.partial(jax.jit, static_argnums=0)
+def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
+    task = r.task.bind(data)
+    n = len(r.scales)
+    reset = jax.vmap(task.reset)
+    step = jax.vmap(task.step_target if r.controls == "targets" else task.step)
+    kinematics = jax.vmap(task.kinematics)
+    k_env, k_act = jax.random.split(key)
+    state = reset(jax.random.split(k_env, n), jnp.asarray(r.scales, jnp.float32))
+    acc0 = {k: jnp.zeros(n) for k in ACCUMULATED}
+
+    def body(state, live, acc, key):
+        key, k = jax.random.split(key)
+        u = r.policy(params, state.obs, k)
+        before = kinematics(state.physics)
+        state = step(state, u if r.controls == "targets" else jnp.clip(u, -1.0, 1.0))
+        m = state.metrics
+        acc = {
+            "steps": acc["steps"] + live, "l2": acc["l2"] + live * m["action_l2"],
+            "clip": acc["clip"] + live * (m["action_abs_max"] > CLIP_LEVEL),
+            "clip_active": acc["clip_active"] + live * (m["active_abs_max"] > CLIP_LEVEL),
+            **{k: jnp.where(live, m[src], acc[k]) for k, src in (
+                ("success", "success"), ("detach", "detach"), ("progress", "progress"), ("ret", "episode_return"))},
+        }
+        record = {"q": m["q"], "hand_q": before.hand_q, "obj_q": before.obj_q, "live": live}
+        return state, live & ~state.done, acc, key, record
+
+    live0 = jnp.ones(n, bool)
+    if r.steps is None:
+        def loop(c):
+            t, state, live, acc, key = c
+            state, live, acc, key, _ = body(state, live, acc, key)
+            return t + 1, state, live, acc, key
+
+        T = task.config.episode_length
+        _, _, _, acc, _ = jax.lax.while_loop(lambda c: (c[0] < T) & c[2].any(), loop,
+                                             (jnp.int32(0), state, live0, acc0, k_act))
+        return {"acc": acc}
+
+    def scan_body(c, _):
+        state, live, acc, key = c
+        state, live, acc, key, record = body(state, live, acc, key)
+        return (state, live, acc, key), record
+
+    (_, _, acc, _), records = jax.lax.scan(scan_body, (state, live0, acc0, k_act), None, length=r.steps)
+    return {"acc": acc, **records}
+
+
+def rollout(task: PullTask, policy: Policy, params: Any, dampings: list[float], episodes: int = 1, seed: int = 0,
+            controls: str = "actions", steps: int | None = None, key: Hashable | None = None) -> dict:
+    """Run the rollout; host arrays: ``acc`` (per-world accumulations, see :func:`cells`) and with ``steps`` the
+    per-step records ``q``, ``hand_q``, ``obj_q``, ``live`` (steps x worlds [x DoFs])."""
+    r = Rollout(task, policy, tuple(float(d) for d in np.repeat(dampings, episodes)), controls, steps, key)
+    out = jax.device_get(_run(r, task.data, params, jax.random.PRNGKey(seed)))
+    return jax.tree.map(np.asarray, out)
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """The Wilson score interval of a binomial rate (good at 0 and 1, unlike the normal approximation); ``z``: the
+    two-sided 95% normal quantile."""
+    if n == 0:
+        return 0.0, 1.0
+    p = successes / n
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * (p * (1 - p) / n + z * z / (4 * n * n)) ** 0.5 / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
+    """Per damping cell: success_rate with its 95% Wilson interval, progress_mean (final progress), return_mean,
+    steps_mean (episode length), clip099 over every action channel and clip099_active over the DoFs that move,
+    detach_rate, action_l2_mean: each over the first episode of every world of the cell."""
+    acc = result["acc"]
+    records = []
+    for i, d in enumerate(dampings):
+        sl = slice(i * episodes, (i + 1) * episodes)
+        steps = acc["steps"][sl]
+        wins = int(np.sum(acc["success"][sl] > 0))
+        lo, hi = wilson_interval(wins, episodes)
+        total = max(float(steps.sum()), 1.0)
+        records.append({
+            "damping": float(d), "episodes": episodes, "successes": wins, "success_rate": wins / episodes,
+            "success_ci95": [lo, hi], "progress_mean": float(np.mean(acc["progress"][sl])),
+            "return_mean": float(np.mean(acc["ret"][sl])), "steps_mean": float(np.mean(steps)),
+            "clip099": float(acc["clip"][sl].sum() / total),
+            "clip099_active": float(acc["clip_active"][sl].sum() / total),
+            "detach_rate": float(np.mean(acc["detach"][sl] > 0)),
+            "action_l2_mean": float(acc["l2"][sl].sum() / total),
+        })
+    return records
+
+
+def trace(result: dict) -> dict:
+    """Per world: whether its first episode succeeded (``success``), and each step's object q (``q``: steps x n)
+    and effector q before the step (``hand_q``: steps x n x DoFs)."""
+    return {"success": result["acc"]["success"] > 0, "q": result["q"], "hand_q": result["hand_q"]}
+
+
+def frames(result: dict, dampings: list[float]) -> list[dict]:
+    """Per world (one per damping): the effector and object q of every step of its first episode, how it ended
+    and its length (what a video shows)."""
+    rows = []
+    for i, d in enumerate(dampings):
+        steps = int(result["live"][:, i].sum())
+        rows.append({"damping": float(d), "hand_q": result["hand_q"][:steps, i], "obj_q": result["obj_q"][:steps, i],
+                     "success": bool(result["acc"]["success"][i] > 0), "steps": steps})
+    return rows

@@ -1,0 +1,83 @@
+"""PPO's pure pieces, Brax's ``losses.py`` manner: GAE and the loss as functions of arrays and parameters only.
+
+Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds - c_e H + w_aux L_aux, with the clipped surrogate, the
+clipped value loss in the normalised value space, rl_games' bounds loss on the action mean beyond +-1.1, and the
+auxiliary loss in z-scored target space (facts §6-§7). KL(old || new) is reported as rl_games computes it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from dragmesh2_jax.ppo.config import PPOConfig
+
+LOG2PI = float(np.log(2 * np.pi))
+BOUND = 1.1  # rl_games' bounds loss acts on |mu| beyond this
+
+
+@struct.dataclass
+class Batch:
+    state: jnp.ndarray  # normalised network inputs
+    history: jnp.ndarray
+    privileged: jnp.ndarray
+    aux_target: jnp.ndarray  # z-scored auxiliary targets
+    action: jnp.ndarray
+    logp: jnp.ndarray
+    mu: jnp.ndarray  # rollout-time action mean (for the exact KL)
+    log_std: jnp.ndarray
+    value: jnp.ndarray  # normalised value prediction at rollout time
+    advantage: jnp.ndarray
+    target: jnp.ndarray  # normalised return target
+
+
+def gaussian_logp(a, mu, log_std):
+    return jnp.sum(-0.5 * ((a - mu) / jnp.exp(log_std)) ** 2 - log_std - 0.5 * LOG2PI, axis=-1)
+
+
+def compute_gae(rewards, values, dones, last_value, gamma: float, lam: float):
+    """(advantages, returns) over (T, N) arrays; ``dones[t]`` ends the episode after step t."""
+
+    def body(carry, x):
+        adv_next, v_next = carry
+        r, v, d = x
+        nonterminal = 1.0 - d
+        delta = r + gamma * v_next * nonterminal - v
+        adv = delta + gamma * lam * nonterminal * adv_next
+        return (adv, v), adv
+
+    _, adv = jax.lax.scan(body, (jnp.zeros_like(last_value), last_value), (rewards, values, dones), reverse=True)
+    return adv, adv + values
+
+
+def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: Batch, config: PPOConfig, w_aux):
+    """(total loss, its terms) of a minibatch. ``apply(params, state, history, privileged) -> (mu, log_std, value,
+    z_hist)``; ``aux_head(params, z_hist) -> prediction`` (None: no auxiliary loss)."""
+    c = config
+    mu, log_std, v, z = apply(params, batch.state, batch.history, batch.privileged)
+    logp = gaussian_logp(batch.action, mu, log_std)
+    ratio = jnp.exp(logp - batch.logp)
+    adv = batch.advantage
+    if c.normalize_advantage:
+        adv = (adv - adv.mean()) / (adv.std() + 1e-8)
+    pg = -jnp.mean(jnp.minimum(ratio * adv, jnp.clip(ratio, 1 - c.clip_eps, 1 + c.clip_eps) * adv))
+    if c.clip_value:
+        v_clip = batch.value + jnp.clip(v - batch.value, -c.clip_eps, c.clip_eps)
+        vl = 0.5 * jnp.mean(jnp.maximum((v - batch.target) ** 2, (v_clip - batch.target) ** 2))
+    else:
+        vl = 0.5 * jnp.mean((v - batch.target) ** 2)
+    bounds = jnp.mean(jnp.sum(jnp.maximum(mu - BOUND, 0) ** 2 + jnp.maximum(-BOUND - mu, 0) ** 2, axis=-1))
+    entropy = jnp.sum(log_std + 0.5 * (LOG2PI + 1.0))
+    aux = jnp.float32(0.0)
+    if aux_head is not None:
+        pred = aux_head(params, z)
+        aux = jnp.sum(jnp.asarray(c.aux_channel_weights) * jnp.mean((pred - batch.aux_target) ** 2, axis=0))
+    total = pg + c.value_coef * vl + c.bounds_coef * bounds - c.entropy_coef * entropy + w_aux * aux
+    kl = jnp.mean(jnp.sum(log_std - batch.log_std + (jnp.exp(2 * batch.log_std) + (batch.mu - mu) ** 2)
+                          / (2 * jnp.exp(2 * log_std)) - 0.5, axis=-1))  # KL(old || new), as rl_games
+    return total, {"loss": total, "policy_loss": pg, "value_loss": vl, "bounds_loss": bounds, "aux_loss": aux,
+                   "kl": kl, "entropy": entropy}

@@ -1,0 +1,163 @@
+"""Each command's whole job as a library function (the CLI only parses and prints; notebooks, experiments and
+tests call these): describe an object, generate a trajectory, train, fine-tune, load a trained run, evaluate a
+checkpoint or a controller that needs no training, render a run's video."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.baselines import tracking
+from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
+from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
+from dragmesh2_jax.ppo.checkpoint import load_checkpoint
+from dragmesh2_jax.ppo.finetune import get_finetune
+from dragmesh2_jax.ppo.train import TrainProgram, TrainState, init_jit, seed_keys
+from dragmesh2_jax.render import render_png, render_policy_video, render_trajectory_gif
+from dragmesh2_jax.runs.build import load_task, program_of
+from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.spec import finetune_spec, method_spec
+from dragmesh2_jax.scene import SceneConfig, build_scene
+from dragmesh2_jax.trajectory.generator import generate
+from dragmesh2_jax.trajectory.schema import write_trajectory
+
+
+def parse_floats(text: str, what: str, minimum: float | None = None) -> list[float]:
+    """Comma-separated finite numbers (``"1,2,4"``), each >= ``minimum`` when given."""
+    try:
+        vals = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise DragMeshError(f"{what}: expected comma-separated numbers, got {text!r}") from None
+    if not vals:
+        raise DragMeshError(f"{what}: no values given")
+    if not all(math.isfinite(v) for v in vals):
+        raise DragMeshError(f"{what}: values must be finite, got {text!r}")
+    if minimum is not None and min(vals) < minimum:
+        raise DragMeshError(f"{what}: values must be >= {minimum:g}, got {text!r}")
+    return vals
+
+
+def describe_object(folder: str, scene_config: SceneConfig = SceneConfig(), render: str | None = None) -> dict:
+    """An object's summary (target, joint, handle), its scene's statistics and handle in the world, and, with
+    ``render``, a picture of hand + object written there."""
+    obj = load_gapartnet(folder)
+    scene = build_scene(obj, scene_config)
+    info = obj.summary()
+    info["scene"] = scene.stats
+    info["handle_world"] = {"centre": [round(float(x), 5) for x in scene.handle.centre],
+                            "thickness_m": round(scene.handle.thickness, 5)}
+    if render:
+        info["render"] = {"path": str(render), "renderer": render_png(scene.model, scene.initial_data(), render,
+                                                                     target=scene.handle.centre)}
+    return info
+
+
+def make_trajectory(object_dir: str, out: str, render: str | None = None):
+    """Generate an object's reference trajectory into ``out`` (and, with ``render``, a GIF of it executed);
+    returns (trajectory, renderer used or None)."""
+    if render and not render.endswith(".gif"):
+        raise DragMeshError(f"{render}: only .gif videos are supported")
+    obj = load_gapartnet(object_dir)
+    traj = generate(obj)
+    write_trajectory(traj, out)
+    return traj, (render_trajectory_gif(obj, traj, render) if render else None)
+
+
+def train_run(out: str, object_dir: str | None, trajectory: str | None, method: str, backend: str = "auto",
+              impl: str = "jax", seeds: list[int] | None = None, resume: bool = False, task_changes: dict | None = None,
+              scene_changes: dict | None = None, network_changes: dict | None = None,
+              selection: Selection = Selection(), save_every: int = 10, progress: bool = True,
+              **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
+    """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
+    record (``resume``: ``ppo["epochs"]`` extends it); returns (program, [(seed, log rows)])."""
+    runs = [RunDir(Path(out) / f"seed_{s}") for s in seeds] if seeds else [RunDir(out)]
+    if resume:
+        program, _, logs = start_or_resume(None, runs, resume=True, epochs=ppo.get("epochs"), backend=backend,
+                                           impl=impl, save_every=save_every, selection=selection, progress=progress)
+        return program, [(r.spec().ppo.seed, rows) for r, rows in zip(runs, logs, strict=True)]
+    spec = method_spec(method, object_dir, ppo, task_changes, scene_changes, backend, impl, network_changes)
+    program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, save_every=save_every,
+                                       selection=selection, progress=progress)
+    return program, list(zip(seeds or [spec.ppo.seed], logs, strict=True))
+
+
+def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "jax", keep_env: bool = True
+             ) -> tuple[TrainProgram, TrainState, RunDir, Path]:
+    """(program, train state, run, checkpoint path) from a checkpoint inside a run folder (or the run folder: its
+    ``best_robust`` checkpoint, else ``final``). On an engine other than the one the run trained on, the policy
+    (parameters and normalisers) is moved into a fresh state of that engine: a policy trained on one engine
+    evaluates on the other."""
+    run, ck = RunDir.of_checkpoint(checkpoint)
+    spec = run.spec()
+    trained_on = run.backend
+    program = program_of(spec.on(backend or trained_on, impl), run.trajectory())
+    fresh = init_jit(program, program.task.data, seed_keys([spec.ppo.seed])[0])
+    if program.task.backend.name == trained_on:
+        return program, load_checkpoint(fresh, ck, keep_env=keep_env), run, ck
+    source = program_of(spec.on(trained_on, impl), run.trajectory())
+    src = load_checkpoint(init_jit(source, source.task.data, seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
+    return program, fresh.replace(params=src.params, state_stats=src.state_stats, token_stats=src.token_stats,
+                                  aux_stats=src.aux_stats, privileged_stats=src.privileged_stats,
+                                  value_stats=src.value_stats, epoch=src.epoch, aram_lambda=src.aram_lambda), run, ck
+
+
+def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "jax",
+                 epochs: int | None = None, selection: Selection = Selection(), save_every: int = 10,
+                 progress: bool = True) -> tuple[Path, list[dict]]:
+    """A fine-tune preset continuing a trained run from ``checkpoint`` for the preset's epochs (or ``epochs``),
+    counted on from the checkpoint's epoch, into ``out``; returns (parent checkpoint, log rows)."""
+    more = get_finetune(recipe).epochs if epochs is None else epochs
+    if more < 1:
+        raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")
+    parent, ts, run, ck = load_run(checkpoint, backend, impl)
+    spec = finetune_spec(run.spec().on(parent.task.backend.name, impl), recipe, str(ck.resolve()),
+                         int(ts.epoch) + more)
+    program = program_of(spec, run.trajectory())
+    start = load_checkpoint(init_jit(program, program.task.data, seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
+    _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=run.trajectory(), resume=False, start=start,
+                                 save_every=save_every, selection=selection, progress=progress)
+    return ck, logs[0]
+
+
+def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend: str | None = None,
+                        impl: str = "jax") -> tuple[dict, Path]:
+    """The protocol for a trained run's checkpoint, written into the run's evaluations (keyed by checkpoint and
+    protocol); returns the result and its file."""
+    program, ts, run, ck = load_run(checkpoint, backend, impl)
+    result = evaluate(protocol.task(program.task), program.controller(ts), protocol)
+    result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs())
+    return result, run.write_evaluation(ck, protocol, result, markdown_table(result))
+
+
+def baseline_controllers() -> dict:
+    """Controllers that need no training, by name: ``name -> (task -> (the task it runs, Controller))`` (the
+    primitive runs its own gripper in the task's place)."""
+    return {tracking.TRACKING: lambda task: (task, tracking.tracking_controller(task)),
+            tracking.TRACKING_DELTA: lambda task: (task, tracking.tracking_delta_controller(task)),
+            PARALLEL_JAW: parallel_jaw}
+
+
+def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, protocol: EvalProtocol = PAPER,
+                      backend: str = "auto", impl: str = "jax") -> dict:
+    """The protocol for a controller that needs no training (``baseline_controllers``) on an object."""
+    known = baseline_controllers()
+    if name not in known:
+        raise DragMeshError(f"unknown controller {name!r} (choose from {', '.join(known)}; trained policies are "
+                            "evaluated with --checkpoint)")
+    task, controller = known[name](protocol.task(load_task(object_dir, trajectory, backend, impl)))
+    return evaluate(task, controller, protocol)
+
+
+def video_of_run(checkpoint: str, dampings: list[float], out: str, every: int, backend: str | None = None,
+                 impl: str = "jax") -> tuple[Path, str, Path]:
+    """A run's deterministic policy from the exact start at each damping, side by side; returns (video path,
+    renderer used, checkpoint)."""
+    program, ts, _, ck = load_run(checkpoint, backend, impl)
+    task = EvalProtocol(starts=None).task(program.task)
+    c = program.controller(ts)
+    path, used = render_policy_video(task, c.make_policy(True), c.params, dampings, out, every=every)
+    return path, used, ck

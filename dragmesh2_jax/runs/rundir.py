@@ -1,0 +1,200 @@
+"""The run folder, and the only code that knows its layout:
+
+    run.json                 the run record (``runs/spec.py``), written once when the run starts
+    trajectory.json          the reference trajectory the task was built from
+    log.jsonl, log.csv       one row per epoch: every metric the epoch returned
+    robust.jsonl, robust.csv the robustness checks that select ``best_robust`` (paper App. B.3-B.4)
+    tb/                      the same scalars as TensorBoard event files
+    checkpoints/NAME         Orbax checkpoints (``ppo/checkpoint.py``): ``epoch_NNNN``, ``best`` (training
+                             reward), ``best_robust``, ``final``
+    evaluations/CK__PROTOCOL.json, .md   an evaluation of checkpoint CK under a protocol (``EvalProtocol.name``):
+                             one never overwrites another's
+
+Tables are rewritten whole and atomically at every row (a crash leaves the previous version).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import shutil
+from pathlib import Path
+
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.protocol import EvalProtocol
+from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+from dragmesh2_jax.ppo.checkpoint import is_checkpoint
+from dragmesh2_jax.runs.spec import RunSpec
+from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory, write_trajectory
+
+#: Checkpoints a run offers as its policy, in the order they are preferred.
+CHECKPOINT_PREFERENCE = ("best_robust", "final")
+EPOCH_PREFIX = "epoch_"
+
+
+def epoch_name(epoch: int) -> str:
+    return f"{EPOCH_PREFIX}{epoch:04d}"
+
+
+class RunDir:
+    """A run folder (see the module docstring); nothing is read or written before it is asked for."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self._record: dict | None = None
+
+    def __repr__(self) -> str:
+        return f"RunDir({str(self.path)!r})"
+
+    @property
+    def record_path(self) -> Path:
+        return self.path / "run.json"
+
+    @property
+    def trajectory_path(self) -> Path:
+        return self.path / "trajectory.json"
+
+    @property
+    def tensorboard(self) -> Path:
+        return self.path / "tb"
+
+    def exists(self) -> bool:
+        """Whether the folder holds a run (its record)."""
+        return self.record_path.is_file()
+
+    # ----------------------------------------------------------------------------------- the record
+    def start(self, spec: RunSpec, backend: str, trajectory: Trajectory, replace: bool = False) -> None:
+        """Write the record and the trajectory of a new run (once: a folder that holds a run is an error unless
+        ``replace``, for a run that stopped before it saved anything)."""
+        if self.exists() and not replace:
+            raise DragMeshError(f"{self.path}: already holds a run (use --resume, or another --out)")
+        if self.exists():
+            shutil.rmtree(self.path)
+        self.path.mkdir(parents=True, exist_ok=True)
+        write_trajectory(trajectory, self.trajectory_path)
+        atomic_write_json(self.record_path, spec.record(backend))
+        self._record = None
+
+    def record(self) -> dict:
+        """The record as written, read once."""
+        if self._record is None:
+            if not self.exists():
+                raise DragMeshError(f"{self.path}: not a training run folder (no run.json)")
+            try:
+                self._record = json.loads(self.record_path.read_text())
+            except (json.JSONDecodeError, UnicodeDecodeError) as e:
+                raise DragMeshError(f"{self.record_path}: not valid JSON ({e})") from None
+            if not isinstance(self._record, dict):
+                raise DragMeshError(f"{self.record_path}: not a JSON object")
+        return self._record
+
+    def spec(self) -> RunSpec:
+        return RunSpec.from_record(self.record(), where=str(self.record_path))
+
+    @property
+    def backend(self) -> str:
+        """The engine the run trained on."""
+        b = self.record().get("backend")
+        if not isinstance(b, str):
+            raise DragMeshError(f"{self.record_path}: no engine recorded (backend)")
+        return b
+
+    def trajectory(self) -> Trajectory:
+        return read_trajectory(self.trajectory_path)
+
+    # -------------------------------------------------------------------------------- checkpoints
+    def checkpoint(self, name: str) -> Path:
+        return self.path / "checkpoints" / name
+
+    def has_checkpoint(self, name: str) -> bool:
+        return is_checkpoint(self.checkpoint(name))
+
+    def epoch_checkpoints(self) -> dict[int, Path]:
+        """The ``epoch_NNNN`` checkpoints by epoch."""
+        out = {}
+        for p in (self.path / "checkpoints").glob(f"{EPOCH_PREFIX}*"):
+            tail = p.name[len(EPOCH_PREFIX):]
+            if tail.isdigit() and is_checkpoint(p):
+                out[int(tail)] = p
+        return out
+
+    def policy_checkpoint(self) -> Path:
+        """The checkpoint that stands for the run's policy: ``best_robust``, else ``final``."""
+        for name in CHECKPOINT_PREFERENCE:
+            if self.has_checkpoint(name):
+                return self.checkpoint(name)
+        raise DragMeshError(f"{self.path}: no checkpoints/{{{','.join(CHECKPOINT_PREFERENCE)}}}")
+
+    def trained_epochs(self) -> int:
+        """Epochs the run has finished (its log), 0 when it has no final checkpoint yet."""
+        if not self.has_checkpoint("final"):
+            return 0
+        rows = self.log_rows()
+        return int(rows[-1]["epoch"]) if rows else 0
+
+    @staticmethod
+    def of_checkpoint(path: str | Path) -> tuple[RunDir, Path]:
+        """(the run, the checkpoint) of a checkpoint path, or of a run folder (its policy checkpoint)."""
+        p = Path(path)
+        if (p / "run.json").is_file():
+            run = RunDir(p)
+            return run, run.policy_checkpoint()
+        if is_checkpoint(p) and (p.parent.parent / "run.json").is_file():
+            return RunDir(p.parent.parent), p
+        raise DragMeshError(f"{p}: no such checkpoint (a run folder or one of its checkpoints/*)")
+
+    # -------------------------------------------------------------------------------------- tables
+    def log_rows(self, max_epoch: int | None = None) -> list[dict]:
+        return self._rows("log", max_epoch)
+
+    def robust_rows(self, max_epoch: int | None = None) -> list[dict]:
+        return self._rows("robust", max_epoch)
+
+    def write_log(self, rows: list[dict]) -> None:
+        self._write_table("log", rows)
+
+    def write_robust(self, rows: list[dict]) -> None:
+        self._write_table("robust", rows)
+
+    def _rows(self, stem: str, max_epoch: int | None) -> list[dict]:
+        path = self.path / f"{stem}.jsonl"
+        if not path.is_file():
+            return []
+        try:
+            rows = [json.loads(x) for x in path.read_text().splitlines() if x.strip()]
+        except json.JSONDecodeError as e:
+            raise DragMeshError(f"{path}: a row is not valid JSON ({e})") from None
+        if not all(isinstance(r, dict) and isinstance(r.get("epoch"), int) for r in rows):
+            raise DragMeshError(f"{path}: every row must be an object with an integer epoch")
+        return [r for r in rows if max_epoch is None or r["epoch"] <= max_epoch]
+
+    def _write_table(self, stem: str, rows: list[dict]) -> None:
+        """``stem.jsonl`` and ``stem.csv`` (columns: every key, in the order first seen)."""
+        atomic_write_text(self.path / f"{stem}.jsonl", "".join(json.dumps(r) + "\n" for r in rows))
+        keys = list(dict.fromkeys(k for r in rows for k in r))
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+        atomic_write_text(self.path / f"{stem}.csv", buf.getvalue())
+
+    # -------------------------------------------------------------------------------- evaluations
+    def evaluation_path(self, checkpoint: Path, protocol: EvalProtocol, suffix: str = ".json") -> Path:
+        return self.path / "evaluations" / f"{checkpoint.name}__{protocol.name}{suffix}"
+
+    def write_evaluation(self, checkpoint: Path, protocol: EvalProtocol, result: dict, markdown: str) -> Path:
+        path = self.evaluation_path(checkpoint, protocol)
+        atomic_write_json(path, result)
+        atomic_write_text(self.evaluation_path(checkpoint, protocol, ".md"), markdown + "\n")
+        return path
+
+    def evaluation(self, checkpoint: Path, protocol: EvalProtocol) -> dict | None:
+        """The evaluation of ``checkpoint`` under ``protocol`` when one was written, else None."""
+        path = self.evaluation_path(checkpoint, protocol)
+        if not path.is_file():
+            return None
+        try:
+            return json.loads(path.read_text())
+        except json.JSONDecodeError:
+            return None  # damaged: evaluated again

@@ -1,0 +1,213 @@
+"""A training run from start to finish: :func:`start_or_resume` is the one way a run starts, resumes or is extended
+(train, finetune, reproduce and the demo all call it). It owns what happens around the pure epochs of
+``ppo/train.py``: the run folders' records, logs, TensorBoard scalars and checkpoints, and the robustness checks
+that keep ``best_robust`` (paper App. B.3-B.4).
+
+Several seeds train as one program (the epoch ``vmap``ped over a run axis, sharded over the local devices when they
+divide the seeds); each seed has its own run folder, so evaluation and fine-tunes read it like any run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import time
+from dataclasses import dataclass
+
+import jax
+import numpy as np
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from tensorboardX import SummaryWriter
+
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.protocol import SELECTION, EvalProtocol
+from dragmesh2_jax.evaluation.rollout import cells, rollout
+from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
+from dragmesh2_jax.ppo.train import (
+    TrainProgram,
+    TrainState,
+    init_jit,
+    init_runs,
+    policy_params,
+    run_mesh,
+    seed_keys,
+    take_run,
+    train,
+)
+from dragmesh2_jax.runs.build import program_of
+from dragmesh2_jax.runs.rundir import RunDir, epoch_name
+from dragmesh2_jax.runs.spec import RunSpec
+from dragmesh2_jax.trajectory.schema import Trajectory
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Checkpoint selection by robustness during training: every ``every`` epochs (0: off) the det policy runs the
+    selection protocol, and ``best_robust`` keeps the best by mean, then worst success, ties by lower active
+    clip099."""
+
+    every: int = 10
+    protocol: EvalProtocol = SELECTION
+
+    @staticmethod
+    def score(row: dict) -> tuple:
+        return row["mean_success"], row["worst_success"], -row["clip099_active"]
+
+
+def selection_check(program: TrainProgram, selection: Selection):
+    """``ts -> row``: det success per damping of the selection protocol (its own starts), one parallel rollout
+    compiled once per program signature."""
+    p = selection.protocol
+    task, policy, dampings = p.task(program.task), program.make_policy(True), list(p.dampings)
+
+    def check(ts: TrainState) -> dict:
+        result = rollout(task, policy, policy_params(ts), dampings, p.episodes, p.seed,
+                         key=(program.signature, "det"))
+        rs = cells(result, dampings, p.episodes)
+        s = [r["success_rate"] for r in rs]
+        return {"epoch": int(ts.epoch), "mean_success": float(np.mean(s)), "worst_success": float(np.min(s)),
+                "clip099_active": float(np.mean([r["clip099_active"] for r in rs])),
+                **{f"success_x{r['damping']:g}": r["success_rate"] for r in rs}}
+
+    return check
+
+
+def _resume_epoch(runs: list[RunDir]) -> int | None:
+    """The newest epoch every run folder has a checkpoint of (runs save together; an interruption between two
+    folders' saves leaves the older epoch the common one); None when there is none."""
+    common = set.intersection(*(set(r.epoch_checkpoints()) for r in runs))
+    return max(common) if common else None
+
+
+class _Progress:
+    """A progress bar on a terminal; elsewhere (a log file) one plain line per tenth of the epochs."""
+
+    def __init__(self, name: str, total: int, done: int, enabled: bool):
+        self.total, self.t0, self.done0 = total, time.time(), done
+        self.tty = enabled and sys.stderr.isatty()
+        self.lines = enabled and not self.tty
+        self.every = max(1, total // 10)
+        self.bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                            TimeElapsedColumn(), TextColumn("{task.fields[stats]}"), disable=not self.tty)
+        self.task = self.bar.add_task(name, total=total, completed=done, stats="")
+        self.name = name
+
+    def update(self, epoch: int, stats: str) -> None:
+        self.bar.update(self.task, completed=epoch, stats=stats)
+        if self.lines and (epoch % self.every == 0 or epoch == self.total):
+            spent = time.time() - self.t0
+            left = spent / max(epoch - self.done0, 1) * (self.total - epoch)
+            print(f"{self.name}: epoch {epoch}/{self.total}  {stats}  elapsed {spent:.0f} s  left ~{left:.0f} s",
+                  file=sys.stderr, flush=True)
+
+
+def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] | None = None,
+                    trajectory: str | Trajectory | None = None, resume: bool | None = None,
+                    start: TrainState | None = None, epochs: int | None = None, backend: str | None = None,
+                    impl: str = "jax", save_every: int = 10, selection: Selection = Selection(),
+                    progress: bool = True, log_fn=None) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
+    """Train the runs in ``runs`` (one per seed, as one program) to ``epochs`` (default: the spec's).
+
+    ``resume``: True continues the runs exactly from their newest common checkpoint (their records define them:
+    ``spec`` may be None); False starts new runs of ``spec`` (a folder that holds a run is an error); None resumes
+    when every folder has a checkpoint and starts otherwise (a run stopped before its first checkpoint starts
+    again). ``start``: a fine-tune's first state (one run). ``backend``: resume on this engine instead of the
+    recorded task's. Returns the program, the final state (leading run axis) and each run's log rows."""
+    seeds = list(seeds) if seeds is not None else [spec.ppo.seed] if spec else None
+    if not runs or (seeds is not None and len(seeds) != len(runs)):
+        raise DragMeshError("one run folder per seed, at least one")
+    if start is not None and len(runs) != 1:
+        raise DragMeshError("a fine-tune continues one run, not several seeds")
+    common = _resume_epoch(runs) if all(r.exists() for r in runs) else None
+    fresh = resume is None and common is None  # a run stopped before its first checkpoint may start again
+    if resume is None:
+        resume = common is not None
+    if resume:
+        if common is None:
+            raise DragMeshError(f"{runs[0].path}: nothing to resume (no checkpoints/epoch_* common to every run)")
+        recorded = runs[0].spec()
+        spec = recorded.on(backend, impl) if backend else recorded
+        seeds = [r.spec().ppo.seed for r in runs]
+        program = program_of(spec, runs[0].trajectory())
+        template = init_jit(program, program.task.data, seed_keys(seeds[:1])[0])
+        states = [load_checkpoint(template, r.epoch_checkpoints()[common]) for r in runs]
+        ts = jax.tree.map(lambda *x: jax.numpy.stack(x), *states)
+        rows = [r.log_rows(common) for r in runs]
+        robust_rows = [r.robust_rows(common) for r in runs]
+    else:
+        if spec is None:
+            raise DragMeshError("a new run needs its spec")
+        for r in runs:
+            if r.exists() and not (fresh and not r.epoch_checkpoints()):
+                raise DragMeshError(f"{r.path}: already holds a run (use --resume, or another --out)")
+        program = program_of(spec, trajectory)
+        for r, s in zip(runs, seeds, strict=True):  # one stopped before its first checkpoint starts again
+            r.start(spec.with_seed(s), program.task.backend.name, program.task.traj, replace=True)
+        ts = init_runs(program, program.task.data, seed_keys(seeds)) if start is None else jax.tree.map(
+            lambda x: x[None], start)
+        rows, robust_rows = [[] for _ in runs], [[] for _ in runs]
+    target = epochs or spec.ppo.epochs
+    ts = _loop(program, runs, ts, rows, robust_rows, target, resume, save_every, selection, progress, log_fn)
+    return program, ts, rows
+
+
+def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[list[dict]],
+          robust_rows: list[list[dict]], epochs: int, resumed: bool, save_every: int, selection: Selection,
+          progress: bool, log_fn) -> TrainState:
+    c = program.config
+    check = selection_check(program, selection) if selection.every > 0 else None
+    first = int(ts.epoch[0])
+    best = [max((r["reward"] for r in rr), default=-np.inf) for rr in rows]
+    best_robust = [max((selection.score(r) for r in rr), default=None) for rr in robust_rows]
+    name = program.method.name + (f" x {len(runs)} seeds" if len(runs) > 1 else "")
+    bar = _Progress(f"train {name}", epochs, first, progress)
+    t_start = time.time() - (rows[0][-1]["seconds"] if rows[0] else 0.0)  # a resumed run's clock goes on
+    with bar.bar, contextlib.ExitStack() as stack:
+        # a resumed run's event files drop the points past the checkpoint it continues from
+        boards = [stack.enter_context(SummaryWriter(str(r.tensorboard), purge_step=first + 1 if resumed else None))
+                  for r in runs]
+
+        def on_epoch(ts: TrainState, m: dict) -> None:
+            e = int(ts.epoch[0])
+            seconds = round(time.time() - t_start, 2)
+            for i, run in enumerate(runs):
+                row = {"epoch": e, **{k: float(v[i]) for k, v in m.items()}, "seconds": seconds,
+                       "env_steps": e * c.num_envs * c.rollout_len}
+                rows[i].append(row)
+                run.write_log(rows[i])
+                _board(boards[i], "train", row)
+                improved = row["reward"] > best[i]
+                robust_due = check is not None and (e % selection.every == 0 or e == epochs)
+                kept = e % save_every == 0 or e == epochs  # the last epoch too: a finished run can be extended
+                if kept or improved or robust_due:  # this run's state, only when it is needed
+                    one = take_run(ts, i)
+                if kept:
+                    save_checkpoint(one, run.checkpoint(epoch_name(e)))
+                if improved:
+                    best[i] = row["reward"]
+                    save_checkpoint(one, run.checkpoint("best"))
+                if robust_due:
+                    r = check(one)
+                    r["selected"] = best_robust[i] is None or selection.score(r) > best_robust[i]
+                    if r["selected"]:
+                        best_robust[i] = selection.score(r)
+                        save_checkpoint(one, run.checkpoint("best_robust"))
+                    robust_rows[i].append(r)
+                    run.write_robust(robust_rows[i])
+                    _board(boards[i], "robust", r)
+                if log_fn:
+                    log_fn(row)
+            mean = {k: float(np.mean(m[k])) for k in ("reward", "success", "progress", "clip099")}
+            bar.update(e, f"reward {mean['reward']:.2f}  success {mean['success']:.2f}  progress "
+                          f"{mean['progress']:.2f}  clip099 {mean['clip099']:.2f}")
+
+        ts = train(program, program.task.data, ts, epochs, run_mesh(len(runs)), on_epoch)
+    for i, run in enumerate(runs):
+        save_checkpoint(take_run(ts, i), run.checkpoint("final"))
+    return ts
+
+
+def _board(board, group: str, row: dict) -> None:
+    for k, v in row.items():
+        if k != "epoch" and isinstance(v, int | float):
+            board.add_scalar(f"{group}/{k}", float(v), row["epoch"])

@@ -1,0 +1,112 @@
+"""What a run is, apart from how it is computed: :class:`RunSpec`, the method, the object, every config it trains
+with (task, scene, PPO, network), and for a fine-tune its recipe and the checkpoint it continues. A spec is made
+once from a method preset (:func:`method_spec`) or a fine-tune (:func:`finetune_spec`), written into the run's
+record, and read back whole for resume, evaluation and fine-tunes.
+
+The record (``run.json``, format 3): ``format``, ``method``, ``object``, ``finetune``, ``parent``, ``backend``
+(the engine it trained on), ``ppo``, ``task``, ``scene``, ``network`` and ``versions``. Format 2 (no ``network``:
+the default sizes) is read too.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.policies.methods import Method, get_method, task_overrides
+from dragmesh2_jax.policies.networks import NetworkConfig
+from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.finetune import get_finetune
+from dragmesh2_jax.runs.record import config_from_dict, config_to_dict, versions
+from dragmesh2_jax.scene import SceneConfig
+from dragmesh2_jax.task.config import TaskConfig
+
+RECORD_FORMAT = 3  # 3: the network config; 2: without it (the default sizes)
+READABLE_FORMATS = (2, 3)
+RECORD_KEYS = ("method", "object", "ppo", "task")  # what every record must have
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    method: str
+    object: str  # the object folder
+    ppo: PPOConfig = PPOConfig()
+    task: TaskConfig = TaskConfig()
+    scene: SceneConfig = SceneConfig()
+    network: NetworkConfig = NetworkConfig()
+    finetune: str | None = None  # a fine-tune's recipe
+    parent: str | None = None  # the checkpoint a fine-tune continues
+
+    @property
+    def preset(self) -> Method:
+        """The method preset with this run's network."""
+        return dataclasses.replace(get_method(self.method), network=self.network)
+
+    def with_seed(self, seed: int) -> RunSpec:
+        return dataclasses.replace(self, ppo=dataclasses.replace(self.ppo, seed=seed))
+
+    def on(self, backend: str, impl: str = "jax") -> RunSpec:
+        """The same run on another engine."""
+        return dataclasses.replace(self, task=dataclasses.replace(self.task, backend=backend, impl=impl))
+
+    def record(self, backend: str) -> dict:
+        """The record of this spec (``backend``: the engine it resolved to)."""
+        return {"format": RECORD_FORMAT, "method": self.method, "object": str(Path(self.object).resolve()),
+                "finetune": self.finetune, "parent": self.parent, "backend": backend,
+                "ppo": config_to_dict(self.ppo), "task": config_to_dict(self.task),
+                "scene": config_to_dict(self.scene), "network": config_to_dict(self.network), "versions": versions()}
+
+    @classmethod
+    def from_record(cls, record: dict, where: str = "run record") -> RunSpec:
+        """The spec a record holds, or one error line saying what is wrong with it."""
+        if not isinstance(record, dict):
+            raise DragMeshError(f"{where}: not a JSON object")
+        fmt = record.get("format")
+        if fmt not in READABLE_FORMATS:
+            raise DragMeshError(f"{where}: record format {fmt!r} is not one this version reads "
+                                f"({', '.join(map(str, READABLE_FORMATS))}); train the run again")
+        missing = [k for k in RECORD_KEYS if k not in record]
+        if missing:
+            raise DragMeshError(f"{where}: the record has no {', '.join(missing)}")
+        for k in ("method", "object"):
+            if not isinstance(record[k], str):
+                raise DragMeshError(f"{where}: {k} must be a string, got {record[k]!r}")
+        for k in ("finetune", "parent"):
+            if record.get(k) is not None and not isinstance(record[k], str):
+                raise DragMeshError(f"{where}: {k} must be a string or null, got {record[k]!r}")
+        get_method(record["method"])
+        if record.get("finetune") is not None:
+            get_finetune(record["finetune"])
+        return cls(method=record["method"], object=record["object"],
+                   ppo=config_from_dict(PPOConfig, record["ppo"], where),
+                   task=config_from_dict(TaskConfig, record["task"], where),
+                   scene=config_from_dict(SceneConfig, record.get("scene", {}), where),
+                   network=config_from_dict(NetworkConfig, record.get("network", {}), where),
+                   finetune=record.get("finetune"), parent=record.get("parent"))
+
+
+def method_spec(method: str, object_dir: str, ppo: dict | None = None, task: dict | None = None,
+                scene: dict | None = None, backend: str = "auto", impl: str = "jax",
+                network: dict | None = None) -> RunSpec:
+    """A new run of a method preset: the preset's task (its overrides of the paper's) with ``task`` (TaskConfig
+    fields) on top, the default scene with ``scene`` on top, the PPO defaults with ``ppo`` on top (None values
+    keep the default), the preset's network with ``network`` (NetworkConfig fields) on top."""
+    if not object_dir:
+        raise DragMeshError("no object folder given (--object)")
+    m = get_method(method)
+    task_config = TaskConfig(backend=backend, impl=impl, **{**task_overrides(m), **(task or {})})
+    return RunSpec(method=method, object=str(object_dir),
+                   ppo=PPOConfig(**{k: v for k, v in (ppo or {}).items() if v is not None}),
+                   task=task_config, scene=dataclasses.replace(SceneConfig(), **(scene or {})),
+                   network=dataclasses.replace(m.network, **(network or {})))
+
+
+def finetune_spec(parent: RunSpec, recipe: str, checkpoint: str, epochs: int) -> RunSpec:
+    """A fine-tune of ``parent`` with ``recipe`` (its task overrides on the parent's task), from ``checkpoint``,
+    to ``epochs`` (counted on from the checkpoint's epoch)."""
+    ft = get_finetune(recipe)
+    task = dataclasses.replace(parent.task, **ft.task_overrides(parent.task.reward))
+    return dataclasses.replace(parent, task=task, ppo=dataclasses.replace(parent.ppo, epochs=epochs),
+                               finetune=recipe, parent=str(checkpoint))

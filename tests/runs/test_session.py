@@ -1,0 +1,91 @@
+"""A training run from start to finish: checkpoint selection by robustness and its curve, TensorBoard scalars,
+every metric the epoch returns in the log, and the paper's diagnostic fine-tunes started from a checkpoint."""
+
+import dataclasses
+import struct
+
+import jax
+import pytest
+from tensorboardX.proto import event_pb2
+
+from dragmesh2_jax.evaluation.protocol import SELECTION
+from dragmesh2_jax.ppo.finetune import FINETUNES, get_finetune
+from dragmesh2_jax.ppo.train import epoch_jit, init_jit
+from dragmesh2_jax.runs.commands import finetune_run, load_run
+from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.spec import finetune_spec
+from dragmesh2_jax.task.config import ReconfigConfig
+from tests.conftest import tiny_spec
+
+SELECT = Selection(every=2, protocol=dataclasses.replace(SELECTION, episodes=2))
+
+
+@pytest.fixture(scope="module")
+def trained_run(tmp_path_factory):
+    run = RunDir(tmp_path_factory.mktemp("runs") / "pica")
+    start_or_resume(tiny_spec(epochs=4), [run], resume=False, selection=SELECT, progress=False)
+    return run
+
+
+def test_training_keeps_best_robust_and_its_evaluation_curve(trained_run):
+    rows = trained_run.robust_rows()
+    assert [r["epoch"] for r in rows] == [2, 4]
+    assert {"mean_success", "worst_success", "clip099_active", "success_x1", "success_x2", "success_x4"} <= set(rows[0])
+    assert rows[0]["selected"]  # the first evaluation is the best so far
+    assert (trained_run.path / "robust.csv").is_file()
+    assert trained_run.policy_checkpoint().name == "best_robust"  # evaluate/demo default
+    _, ts, _, ck = load_run(trained_run.path)
+    best = max(rows, key=Selection.score)
+    assert int(ts.epoch) == best["epoch"] and ck.name == "best_robust"
+
+
+def test_the_log_keeps_every_metric_the_epoch_returns(trained_run):
+    p = load_run(trained_run.path)[0]
+    _, metrics = epoch_jit(p, p.task.data, init_jit(p, p.task.data, jax.random.PRNGKey(0)))
+    row = trained_run.log_rows()[0]
+    assert set(metrics) <= set(row) and {"epoch", "seconds", "env_steps"} <= set(row)
+    header = (trained_run.path / "log.csv").read_text().splitlines()[0].split(",")
+    assert set(header) == set(row)
+
+
+def _tensorboard_scalars(folder) -> dict[str, list[int]]:
+    """tag -> steps, read from TensorBoard event files (TFRecord framing: length, crc, event, crc)."""
+    out: dict[str, list[int]] = {}
+    for f in sorted(folder.glob("events.out.tfevents.*")):
+        data, i = f.read_bytes(), 0
+        while i < len(data):
+            (n,) = struct.unpack("<Q", data[i:i + 8])
+            event = event_pb2.Event.FromString(data[i + 12:i + 12 + n])
+            i += 12 + n + 4
+            for v in event.summary.value:
+                out.setdefault(v.tag, []).append(event.step)
+    return out
+
+
+def test_tensorboard_scalars_beside_the_logs(trained_run):
+    tags = _tensorboard_scalars(trained_run.tensorboard)
+    assert tags["train/reward"] == [1, 2, 3, 4] and tags["train/clip099"] == [1, 2, 3, 4]
+    assert tags["robust/mean_success"] == [2, 4]
+
+
+def test_every_finetune_preset_is_the_parents_run_with_the_recipes_task(trained_run):
+    parent = trained_run.spec()
+    for name in FINETUNES:
+        spec = finetune_spec(parent, name, "ck", 9)
+        assert spec.ppo.epochs == 9 and spec.finetune == name and spec.parent == "ck"
+        assert spec.task == dataclasses.replace(parent.task, **get_finetune(name).task_overrides(parent.task.reward))
+    assert finetune_spec(parent, "damp_2_4", "ck", 9).task.damping_range == (2.0, 4.0)
+
+
+def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
+    parent, rows = finetune_run(str(trained_run.path), "both", str(tmp_path / "ft"), epochs=2,
+                                selection=Selection(every=0), progress=False)
+    start = int(load_run(parent)[1].epoch)
+    assert parent.name == "best_robust" and [r["epoch"] for r in rows] == [start + 1, start + 2]
+    assert all("aram_lambda" in r and 0.0 <= r["aram_lambda"] <= 1.0 for r in rows)
+    ft = RunDir(tmp_path / "ft")
+    spec = ft.spec()
+    assert spec.finetune == "both" and spec.task.reward.aram.stall_steps == 5 and spec.parent == str(parent.resolve())
+    program, _, _, _ = load_run(ft.path)  # the record rebuilds the fine-tune's task
+    assert program.task.config.reward.reconfig == ReconfigConfig()
