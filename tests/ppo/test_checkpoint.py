@@ -11,6 +11,9 @@ from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from tests.conftest import tiny_program
 
+#: The module's trained run is built once: keep the file on one xdist worker.
+pytestmark = pytest.mark.xdist_group(__name__)
+
 
 @pytest.fixture(scope="module")
 def programs():

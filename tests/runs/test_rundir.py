@@ -16,6 +16,9 @@ from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
 from tests.conftest import tiny_spec
 
+#: The module's trained run is built once: keep the file on one xdist worker.
+pytestmark = pytest.mark.xdist_group(__name__)
+
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):

@@ -18,6 +18,9 @@ from dragmesh2_jax.runs.spec import finetune_spec
 from dragmesh2_jax.task.config import ReconfigConfig
 from tests.conftest import tiny_spec
 
+#: The module's trained run is built once: keep the file on one xdist worker.
+pytestmark = pytest.mark.xdist_group(__name__)
+
 SELECT = Selection(every=2, protocol=dataclasses.replace(SELECTION, episodes=2))
 
 

@@ -8,6 +8,8 @@ from dragmesh2_jax.trajectory.generator import generate
 
 #: Control steps the backend parity compares (1 s of the same PD targets from the same start).
 PARITY_STEPS = 60
+#: The object whose traces run a whole episode (one MJX compilation serves its parity and its verdicts).
+WHOLE_EPISODE = "45261"
 
 
 @pytest.fixture(scope="session")
@@ -27,7 +29,8 @@ def tracking_tasks(gapartnet_dir):
 
 @pytest.fixture(scope="session")
 def tracking_traces(tracking_tasks):
-    """The tracking baseline's first PARITY_STEPS steps at x1/x2/x4 on both backends (``rollout.trace``)."""
+    """The tracking baseline at x1/x2/x4 on both backends (``rollout.trace``): PARITY_STEPS steps, a whole episode
+    for WHOLE_EPISODE."""
     cache = {}
 
     def get(oid):
@@ -35,8 +38,9 @@ def tracking_traces(tracking_tasks):
             out = {}
             for b, t in tracking_tasks(oid).items():
                 c = tracking_controller(t)
+                steps = t.config.episode_length if oid == WHOLE_EPISODE else PARITY_STEPS
                 out[b] = trace(rollout(t, c.make_policy(True), c.params, [1.0, 2.0, 4.0], controls=c.controls,
-                                       steps=PARITY_STEPS, key=c.key))
+                                       steps=steps, key=c.key))
             cache[oid] = out
         return cache[oid]
 

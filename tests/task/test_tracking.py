@@ -6,6 +6,7 @@ import pytest
 from dragmesh2_jax.evaluation.evaluate import track
 from dragmesh2_jax.runs.build import load_task
 from tests.conftest import REAL_OBJECTS
+from tests.task.conftest import PARITY_STEPS, WHOLE_EPISODE
 
 
 @pytest.mark.parametrize("oid", REAL_OBJECTS)
@@ -24,20 +25,25 @@ def test_reference_trajectory_tracks_in_our_physics(gapartnet_dir, shared_dir):
     assert all(r["success_rate"] == 1.0 for r in track(task, [1.0, 2.0]))
 
 
+#: The whole episode's traces serve two tests: both on one xdist worker, so they are computed once.
+ONE_WORKER = pytest.mark.xdist_group("tracking_whole_episode")
+
+
 @pytest.mark.mjx
-def test_mjx_gives_the_c_engines_verdicts_on_a_whole_episode(tracking_tasks):
+@ONE_WORKER
+def test_mjx_gives_the_c_engines_verdicts_on_a_whole_episode(tracking_traces):
     """45261 at x1/x2/x4: tracking opens it (or fails) on MJX exactly where it does on the C engine, each episode
     to its end."""
-    verdicts = {b: [r["success_rate"] for r in track(t, [1.0, 2.0, 4.0])] for b, t in tracking_tasks("45261").items()}
-    assert verdicts["mjx"] == verdicts["mujoco"] and verdicts["mjx"][0] == 1.0
+    verdicts = {b: list(t["success"]) for b, t in tracking_traces(WHOLE_EPISODE).items()}
+    assert verdicts["mjx"] == verdicts["mujoco"] and verdicts["mjx"][0]
 
 
 @pytest.mark.mjx
-@pytest.mark.parametrize("oid", REAL_OBJECTS)
+@pytest.mark.parametrize("oid", [pytest.param(o, marks=ONE_WORKER) if o == WHOLE_EPISODE else o for o in REAL_OBJECTS])
 def test_backend_parity_bounded_divergence(tracking_traces, real_objects, oid):
     """The same PD targets from the same start on both engines, at x1/x2/x4, for 1 s."""
-    out = tracking_traces(oid)
-    c, j = out["mujoco"], out["mjx"]
+    c, j = ({k: v[:PARITY_STEPS] for k, v in tracking_traces(oid)[b].items() if k != "success"}
+            for b in ("mujoco", "mjx"))
     revolute = real_objects[oid].target.joint.is_revolute
     assert np.abs(c["q"] - j["q"]).max() < (0.05 if revolute else 0.01)  # object joint, rad or m
     assert np.abs(c["hand_q"][..., :3] - j["hand_q"][..., :3]).max() < 0.01  # wrist position, m
