@@ -21,7 +21,7 @@ from dragmesh2_jax.bench import (
 )
 from dragmesh2_jax.demo import run_demo
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.evaluation.evaluate import markdown_table
+from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES, envelope_table, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json
 from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
@@ -36,6 +36,7 @@ from dragmesh2_jax.runs.commands import (
     evaluate_checkpoint,
     finetune_run,
     make_trajectory,
+    object_envelope,
     parse_floats,
     train_run,
     video_of_run,
@@ -265,6 +266,13 @@ def cmd_evaluate(args) -> int:
     return 0
 
 
+def cmd_envelope(args) -> int:
+    paces = parse_floats(args.paces, "--paces", minimum=0.01)
+    rows = object_envelope(args.object, args.trajectory, paces, _dampings(args.damping), args.backend, args.impl)
+    print(json.dumps(rows, indent=1) if args.json else envelope_table(rows))
+    return 0
+
+
 def cmd_reproduce(args) -> int:
     seeds = [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]
     config = ReproduceConfig(objects=tuple(args.objects or [str(procedural.default_object())]), seeds=tuple(seeds),
@@ -487,6 +495,16 @@ def build_parser() -> argparse.ArgumentParser:
     pev.add_argument("--json", action="store_true")
     _add_backend_args(pev)
     pev.set_defaults(func=cmd_evaluate)
+
+    pen = sub.add_parser("envelope", help="an object's physical envelope: the expert drag replayed at several paces "
+                                          "and dampings (which cells are reachable through contact, load peaks)")
+    pen.add_argument("--object", required=True, help="object folder")
+    pen.add_argument("--trajectory", help="trajectory file (default: generate one)")
+    pen.add_argument("--paces", default=_csv(ENVELOPE_PACES), help="replay speeds (0.5: twice as slow)")
+    pen.add_argument("--damping", default=_csv(ENVELOPE_DAMPINGS))
+    pen.add_argument("--json", action="store_true")
+    _add_backend_args(pen)
+    pen.set_defaults(func=cmd_envelope)
 
     prp = sub.add_parser("reproduce", help="the paper's tables end to end: training, fine-tunes, evaluations, "
                                            "markdown, Figure 2 (resumable)")

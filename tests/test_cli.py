@@ -184,3 +184,14 @@ def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and
 def _train_parser():
     sub = next(a for a in build_parser()._actions if a.dest == "cmd")
     return sub.choices["train"]
+
+
+def test_envelope_prints_the_cells_and_rejects_a_bad_pace(capsys):
+    obj = str(default_object())
+    assert dragmesh2(["envelope", "--object", obj, "--paces", "1", "--damping", "1", "--backend", "mujoco",
+                      "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
+    assert row["pace"] == 1.0 and row["damping"] == 1.0 and row["opened"]
+    for bad in (["--paces", "0"], ["--paces", "fast"], ["--damping", "-1"]):
+        assert dragmesh2(["envelope", "--object", obj, "--backend", "mujoco", *bad]) == 2
+    assert capsys.readouterr().err.count("error:") == 3

@@ -56,6 +56,46 @@ def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 
                  dampings, episodes)
 
 
+#: The expert's paces an envelope replays (1: the trajectory's own; 0.5: twice as slow) and its dampings (x8: the
+#: out-of-distribution column beyond the paper's 1/2/4).
+ENVELOPE_PACES = (0.33, 0.5, 1.0, 2.0, 4.0)
+ENVELOPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0)
+
+
+def envelope(task: PullTask, paces=ENVELOPE_PACES, dampings=ENVELOPE_DAMPINGS) -> list[dict]:
+    """The object's physical envelope: the expert drag replayed open-loop at each pace and damping from the
+    task's start, within the task's episode length. Per cell: whether it opened, the episode's steps, final
+    progress, detachment and the peak wrist load (N). A cell the expert opens at some pace is reachable through
+    contact; one it opens at no pace may still be for a closed-loop policy (the part can lag behind a
+    time-indexed path)."""
+    rows = []
+    for pace in paces:
+        c = tracking_controller(task, pace)
+        r = rollout(task, c.make_policy(True), c.params, list(dampings), controls=c.controls,
+                    steps=task.config.episode_length, key=c.key)
+        for i, d in enumerate(dampings):
+            live = r["live"][:, i]
+            rows.append({"pace": float(pace), "damping": float(d), "opened": bool(r["acc"]["success"][i] > 0),
+                         "steps": int(live.sum()), "progress": float(r["acc"]["progress"][i]),
+                         "detached": bool(r["acc"]["detach"][i] > 0),
+                         "wrist_load_peak_n": float(r["wrist_load"][live, i].max(initial=0.0))})
+    return rows
+
+
+def envelope_table(rows: list[dict]) -> str:
+    """Paces x dampings: ``opens (steps, peak wrist load)`` or how it failed (detached, or out of time at a
+    progress)."""
+    dampings = sorted({r["damping"] for r in rows})
+    lines = ["| pace | " + " | ".join(f"x{d:g}" for d in dampings) + " |", "|---" * (len(dampings) + 1) + "|"]
+    for pace in dict.fromkeys(r["pace"] for r in rows):
+        cells_ = []
+        for r in (r for r in rows if r["pace"] == pace):
+            how = "opens" if r["opened"] else ("detaches" if r["detached"] else f"times out at {r['progress']:.2f}")
+            cells_.append(f"{how} ({r['steps']} steps, {r['wrist_load_peak_n']:.0f} N)")
+        lines.append(f"| {pace:g}x | " + " | ".join(cells_) + " |")
+    return "\n".join(lines)
+
+
 def markdown_table(result: dict) -> str:
     lines = ["| damping | mode | success [95% CI] | progress | return | steps | clip099 | clip099 active | detach | "
              "action L2 |", "|---|---|---|---|---|---|---|---|---|---|"]

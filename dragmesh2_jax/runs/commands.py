@@ -11,7 +11,7 @@ from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.baselines import tracking
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
+from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES, envelope, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint
 from dragmesh2_jax.ppo.finetune import get_finetune
@@ -150,6 +150,12 @@ def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, protoc
                             "evaluated with --checkpoint)")
     task, controller = known[name](protocol.task(load_task(object_dir, trajectory, backend, impl)))
     return evaluate(task, controller, protocol)
+
+
+def object_envelope(object_dir: str, trajectory: str | None, paces=ENVELOPE_PACES, dampings=ENVELOPE_DAMPINGS,
+                    backend: str = "auto", impl: str = "jax") -> list[dict]:
+    """An object's physical envelope (``evaluation.evaluate.envelope``) from the exact expert start."""
+    return envelope(EvalProtocol(starts=None).task(load_task(object_dir, trajectory, backend, impl)), paces, dampings)
 
 
 def video_of_run(checkpoint: str, dampings: list[float], out: str, every: int, backend: str | None = None,

@@ -1,6 +1,10 @@
 """``tracking_delta``: the expert drag through the learned policies' action interface (target = q + alpha a)."""
 
-from dragmesh2_jax.baselines.tracking import tracking_delta_controller
+import numpy as np
+import pytest
+
+from dragmesh2_jax.baselines.tracking import drag_targets, tracking_delta_controller
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.rollout import cells, rollout
 from dragmesh2_jax.runs.build import load_task
 
@@ -14,3 +18,15 @@ def test_the_action_increments_suffice_to_open_a_door_at_x4(gapartnet_dir):
     out = cells(rollout(task, c.make_policy(True), c.params, [1.0, 4.0], 1, 0, c.controls, key=c.key), [1.0, 4.0], 1)
     assert [cell["success_rate"] for cell in out] == [1.0, 1.0]
     assert out[1]["clip099"] == 1.0
+
+
+def test_a_slower_pace_is_the_same_path_in_more_steps(drawer_task):
+    at_1, slow, fast = (drag_targets(drawer_task, p) for p in (1.0, 0.5, 2.0))
+    assert len(at_1) > 10
+    assert len(slow) == 2 * len(at_1) and len(fast) == round(len(at_1) / 2)
+    for x in (slow, fast):  # same start and end, every target between two of the path's
+        np.testing.assert_allclose(x[[0, -1]], at_1[[0, -1]], atol=1e-6)
+        assert (x >= at_1.min(0) - 1e-6).all() and (x <= at_1.max(0) + 1e-6).all()
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(DragMeshError, match="pace"):
+            drag_targets(drawer_task, bad)

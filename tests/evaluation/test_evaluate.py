@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.hand import active_dofs
+from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
+from dragmesh2_jax.evaluation.evaluate import envelope, envelope_table, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.evaluation.rollout import cells, frames, rollout, trace, wilson_interval
 from dragmesh2_jax.policies.controller import Controller
+from dragmesh2_jax.runs.build import load_task
 
 
 def rollout_cells(task, policy, params, dampings, episodes, seed=42):
@@ -96,3 +98,18 @@ def test_evaluate_needs_the_protocols_starts(drawer_task):
         evaluate(drawer_task, c, PAPER)  # the training task's exact starts are not the protocol's
     res = evaluate(PAPER.task(drawer_task), c, dataclasses.replace(PAPER, episodes=2, modes=("det",)))
     assert [cell["damping"] for cell in res["cells"]] == [1.0, 2.0, 4.0] and res["protocol"]["episodes"] == 2
+
+
+def test_the_envelope_of_a_procedural_door():
+    """The expert opens the packaged door at x1 at its own pace without detaching; each cell reports its length
+    and wrist-load peak, and a slower replay takes more steps."""
+    task = EvalProtocol(starts=None).task(load_task(str(packaged_object("door_cabinet_0000")), None,
+                                                    backend="mujoco"))
+    rows = envelope(task, paces=(0.5, 1.0), dampings=(1.0, 8.0))
+    assert [(r["pace"], r["damping"]) for r in rows] == [(0.5, 1.0), (0.5, 8.0), (1.0, 1.0), (1.0, 8.0)]
+    own = rows[2]
+    assert own["opened"] and not own["detached"] and 0 < own["steps"] < task.config.episode_length
+    assert all(r["wrist_load_peak_n"] > 0 and np.isfinite(r["wrist_load_peak_n"]) for r in rows)
+    assert rows[0]["opened"] and rows[0]["steps"] > own["steps"]  # measured: 240 and 122 steps
+    table = envelope_table(rows)
+    assert table.splitlines()[0] == "| pace | x1 | x8 |" and "| 1x | opens (" in table
