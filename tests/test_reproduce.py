@@ -5,12 +5,13 @@ import dataclasses
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dragmesh2_jax import reproduce as reproduce_lib
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.reproduce import TABLES, Eval, ReproduceConfig, Run, plan, reproduce
+from dragmesh2_jax.reproduce import PAPER_CELLS, PAPER_OBJECTS, TABLES, Eval, ReproduceConfig, Run, plan, reproduce
 from tests.conftest import installed_command
 
 TINY = ReproduceConfig(objects=(str(default_object()),), seeds=(0,), epochs=2, num_envs=2, episodes=2,
@@ -147,3 +148,15 @@ def test_tables_only_writes_what_is_done_and_names_what_is_not(tmp_path):
     [path] = reproduce(["main"], dataclasses.replace(c, epochs=3), tmp_path, progress=False, run=False)
     table = path.read_text()
     assert "| tracking | x1 | 1.00" in table and "a/pica (seed 0,1)" in table
+
+
+def test_the_papers_cells_cover_its_seven_objects_and_average_to_its_avg_column():
+    """Every row of paper Tables 2 and 3 has all seven objects; the Avg column is their mean (to the paper's
+    rounding), which catches a mistyped cell."""
+    for method, row in PAPER_CELLS.items():
+        assert set(row) == {*PAPER_OBJECTS, "Avg"}, method
+        for k in range(3):  # x1, x2, x4
+            for mode in range(2):  # det, stoch
+                vals = [row[o][k][mode] for o in PAPER_OBJECTS]
+                if row["Avg"][k][mode] is not None:
+                    assert np.mean(vals) == pytest.approx(row["Avg"][k][mode], abs=0.0051), (method, k, mode)
