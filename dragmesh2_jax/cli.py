@@ -303,9 +303,6 @@ def cmd_video(args) -> int:
 
 # ------------------------------------------------------------- every config field as a flag
 #: Config dataclasses whose fields ``dragmesh2 train`` takes as ``--<prefix>.<field>`` flags.
-CONFIG_PREFIXES = ("task", "scene", "ppo")
-
-
 CONFIG_CLASSES = {"task": TaskConfig, "scene": SceneConfig, "ppo": PPOConfig, "network": NetworkConfig}
 
 

@@ -104,10 +104,10 @@ class ActorCritic(nn.Module):
         if self.encoder != "none":
             self.temporal = TemporalEncoder(self.encoder, c.hist_dim, c.heads)
         self.mu = Dense(self.action_size)
+        if self.critic not in CRITICS:
+            raise ValueError(f"unknown critic {self.critic!r}")
         if self.critic == "privileged":
             self.critic_mlp = MLP(c.critic_sizes)
-        elif self.critic != "shared":
-            raise ValueError(f"unknown critic {self.critic!r}")
         self.value = Dense(1)
         self.log_std = self.param("log_std", nn.initializers.constant(c.log_std_init), (self.action_size,))
         self.aux_head = MLP((64,))
