@@ -34,8 +34,22 @@ def machine() -> dict:
             "device": str(devs[0].device_kind if devs else "?"), "jax": jax.__version__}
 
 
+def engine_name(task: PullTask) -> str:
+    """``mujoco`` (the C engine), ``mjx-jax`` or ``mjx-warp``."""
+    b = task.backend
+    return b.name if b.name == "mujoco" else f"{b.name}-{b.impl}"
+
+
+def buffers(task: PullTask) -> dict:
+    """Contact slots and constraint rows one world of the task's engine holds (the C engine's grow as needed)."""
+    if task.backend.name == "mujoco":
+        return {"contact_slots": None, "constraint_rows": None}
+    return {**task.backend.buffers, "budget": task.backend.budget.to_json()}
+
+
 def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     """Time ``steps`` control steps of ``num_envs`` worlds with random actions (compile timed separately)."""
+    task = task.sized(num_envs)
     reset, step = make_batched(AutoReset(task))
     keys = jax.random.split(jax.random.PRNGKey(seed), num_envs)
     actions = jnp.asarray(np.random.default_rng(seed).uniform(-1, 1, (steps, num_envs, NUM_DOFS)).astype(np.float32))
@@ -43,20 +57,26 @@ def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     @jax.jit
     def run(keys, actions):
         s = reset(keys)
-        s, _ = jax.lax.scan(lambda s, a: (step(s, a), None), s, actions)
-        return s.obs.state
+        def body(s, a):
+            s = step(s, a)
+            return s, s.metrics["overflow"].sum()
+
+        s, overflow = jax.lax.scan(body, s, actions)
+        return s.obs.state, overflow.sum()
 
     t0 = time.perf_counter()
     compiled = run.lower(keys, actions).compile()
     compile_s = time.perf_counter() - t0
     jax.block_until_ready(compiled(keys, actions))  # warm
     t0 = time.perf_counter()
-    jax.block_until_ready(compiled(keys, actions))
+    _, overflow = jax.block_until_ready(compiled(keys, actions))
     dt = time.perf_counter() - t0
+    task.check_overflow(int(overflow), "bench env")
     ctrl = num_envs * steps / dt
-    return {"backend": task.backend.name, "num_envs": num_envs, "steps": steps, "compile_s": round(compile_s, 3),
-            "control_steps_per_s": round(ctrl, 1), "physics_steps_per_s": round(ctrl * task.substeps, 1),
-            "wall_s": round(dt, 4), "object": task.scene.obj.object_id, **machine()}
+    return {"backend": task.backend.name, "engine": engine_name(task), "num_envs": num_envs, "steps": steps,
+            "compile_s": round(compile_s, 3), "control_steps_per_s": round(ctrl, 1),
+            "physics_steps_per_s": round(ctrl * task.substeps, 1), "wall_s": round(dt, 4),
+            "object": task.scene.obj.object_id, **buffers(task), **machine()}
 
 
 PAPER_EPOCHS = 150  # the paper's per-object budget: 150 epochs x 64 envs x 32 steps
@@ -67,7 +87,7 @@ def bench_train(program: TrainProgram, epochs: int, runs: int = 1) -> dict:
     vmapped program, sharded over the devices when they divide it). A second program of the same signature
     (another object of the same structure) finds it compiled: its first epoch shows it. ``budget_s``: the
     compiling epoch and 149 more at this batch (the paper's per-object budget at 64 envs)."""
-    data = program.task.data
+    data = program.data(runs)
     if runs > 1:
         mesh = run_mesh(runs)
         ts = init_runs(program, data, seed_keys(list(range(runs))))
@@ -100,6 +120,7 @@ def bench_soak(task: PullTask, dampings: list[float], num_envs: int, steps: int,
     of the batch goes on: the batch's final observations are checked finite)."""
     n = len(dampings) * num_envs
     scales = jnp.repeat(jnp.asarray(dampings, jnp.float32), num_envs)
+    task = task.sized(n)
     reset, step = make_batched(AutoReset(task))
 
     @jax.jit
@@ -132,11 +153,14 @@ def bench_soak(task: PullTask, dampings: list[float], num_envs: int, steps: int,
 
 # ------------------------------------------------------------------ sweeps behind ``dragmesh2 bench``
 def bench_env_sweep(object_dir: str | None, trajectory: str | None, backends: list[str], num_envs: list[int],
-                    steps: int, mjx_steps: int | None = None, impl: str = "jax", report=None) -> list[dict]:
-    """``bench_env`` for every backend x batch size on one object (default: the packaged drawer); MJX may take
-    fewer steps (``mjx_steps``: it is slow on a CPU). ``report(row)`` sees each row as it is measured."""
+                    steps: int, mjx_steps: int | None = None, impls: tuple[str, ...] = ("jax",),
+                    report=None) -> list[dict]:
+    """``bench_env`` for every engine (the C engine, and MJX in each of ``impls``) x batch size on one object
+    (default: the packaged drawer); MJX may take fewer steps (``mjx_steps``: it is slow on a CPU). ``report(row)``
+    sees each row as it is measured."""
     rows = []
-    for backend in backends:
+    engines = [(b, i) for b in backends for i in (impls if b == "mjx" else ("jax",))]
+    for backend, impl in engines:
         task = load_task(object_dir or str(default_object()), trajectory, backend, impl)
         for n in num_envs:
             rows.append(bench_env(task, n, mjx_steps if backend == "mjx" and mjx_steps else steps))
@@ -184,10 +208,11 @@ def learning_curves(objects: list[str], method: str = "pica", epochs: int = 40, 
     curves = {}
     for obj in objects:
         program = program_of(method_spec(method, obj, {"epochs": epochs}, backend=backend))
-        ts = init_runs(program, program.task.data, seed_keys(list(seeds)))
+        data = program.data(len(seeds))
+        ts = init_runs(program, data, seed_keys(list(seeds)))
         rows = {k: [] for k in CURVE_KEYS}
         for e in range(epochs):
-            ts, m = epoch_runs(program, program.task.data, ts)
+            ts, m = epoch_runs(program, data, ts)
             m = jax.device_get(m)
             for k in CURVE_KEYS:
                 rows[k].append([round(float(x), 4) for x in np.asarray(m[k])])

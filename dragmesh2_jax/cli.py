@@ -78,6 +78,16 @@ def cmd_inspect(args) -> int:
           f"{s['max_hull_vertices']} vertices, {s['contact_pairs']} hand-object geom pairs")
     print(f"model         nq {s['nq']} nv {s['nv']} nu {s['nu']} ngeom {s['ngeom']}, target part "
           f"{s['target_mass_kg']} kg")
+    c = info["contacts"]
+    print(f"contacts      {len(c['pairs'])} pairs can collide: each hand geom with each colliding object piece "
+          "(no hand self-contact, no locked or static piece; --json lists them)")
+    if c["budget"] is None:
+        print(f"MJX buffers   {c['note']}")
+    else:
+        b = c["budget"]
+        print(f"MJX buffers   expert drag (C engine, x1 and x8): at most {b['probed_contacts']} contacts, "
+              f"{b['probed_constraints']} constraint rows per world; budget {b['contacts']} contacts, "
+              f"{b['constraints']} rows per world (MJX-JAX would reserve {b['candidates']} contacts uncapped)")
     if args.render:
         print(f"picture       {info['render']['path']} ({info['render']['renderer']} renderer)")
     return 0
@@ -116,8 +126,11 @@ def cmd_dataset(args) -> int:
 
 
 def _print_env_row(r: dict) -> None:
-    _err(f"{r['backend']:7s} envs {r['num_envs']:5d}  compile {r['compile_s']:7.2f} s  "
-         f"control {r['control_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s")
+    slots = "dynamic" if r["contact_slots"] is None else f"{r['contact_slots']:4d}"
+    rows = "dynamic" if r["constraint_rows"] is None else f"{r['constraint_rows']:4d}"
+    _err(f"{r['engine']:8s} envs {r['num_envs']:5d}  compile {r['compile_s']:7.2f} s  "
+         f"control {r['control_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s  "
+         f"contact slots/world {slots}  rows/world {rows}")
 
 
 def _print_train_row(r: dict) -> None:
@@ -136,8 +149,8 @@ def _counts(text: str, what: str) -> list[int]:
 
 def cmd_bench(args) -> int:
     rows = bench_env_sweep(args.object, args.trajectory, [b.strip() for b in args.backend.split(",")],
-                           _counts(args.num_envs, "--num-envs"), args.steps, args.mjx_steps, args.impl,
-                           report=_print_env_row)
+                           _counts(args.num_envs, "--num-envs"), args.steps, args.mjx_steps,
+                           tuple(i.strip() for i in args.impl.split(",")), report=_print_env_row)
     if args.json:
         print(json.dumps(rows, indent=1))
     return 0

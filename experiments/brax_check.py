@@ -31,9 +31,9 @@ DAMPINGS = list(PAPER.dampings)
 
 
 def ours(program: TrainProgram, seed: int):
-    ts = init_jit(program, program.task.data, seed_keys([seed])[0])
+    ts = init_jit(program, program.data(), seed_keys([seed])[0])
     for _ in range(program.config.epochs):
-        ts, _ = epoch_jit(program, program.task.data, ts)
+        ts, _ = epoch_jit(program, program.data(), ts)
     return program.controller(ts)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import os
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -30,15 +31,15 @@ TINY_PPO = {"num_envs": 4, "rollout_len": 8, "epochs": 2}
 
 
 def tiny_spec(method: str = "pica", obj: str | None = None, backend: str = "mujoco", task: dict | None = None,
-              scene: dict | None = None, **ppo) -> RunSpec:
+              scene: dict | None = None, impl: str = "jax", **ppo) -> RunSpec:
     """A method preset on ``obj`` (default: the packaged drawer) with the tiny network and batch."""
-    spec = method_spec(method, obj or str(default_object()), {**TINY_PPO, **ppo}, task, scene, backend)
+    spec = method_spec(method, obj or str(default_object()), {**TINY_PPO, **ppo}, task, scene, backend, impl)
     return dataclasses.replace(spec, network=TINY_NET)
 
 
 def tiny_program(method: str = "pica", obj: str | None = None, backend: str = "mujoco", trajectory=None,
-                 task: dict | None = None, **ppo) -> TrainProgram:
-    return program_of(tiny_spec(method, obj, backend, task, **ppo), trajectory)
+                 task: dict | None = None, impl: str = "jax", **ppo) -> TrainProgram:
+    return program_of(tiny_spec(method, obj, backend, task, impl=impl, **ppo), trajectory)
 
 
 def _enable_jax_cache() -> None:
@@ -60,6 +61,16 @@ def require_shared(path: Path) -> Path:
     if path.exists():
         return path
     msg = f"{path} is missing (tests read the real objects from ../shared)"
+    if os.environ.get("CI", "").lower() == "true":
+        pytest.fail(msg)
+    pytest.skip(msg)
+
+
+def require_warp() -> None:
+    """MJX's Warp implementation (the ``warp`` extra): a failure under CI (which installs it), a skip elsewhere."""
+    if importlib.util.find_spec("warp") is not None:
+        return
+    msg = "warp-lang is not installed (pip install -e \".[warp]\")"
     if os.environ.get("CI", "").lower() == "true":
         pytest.fail(msg)
     pytest.skip(msg)

@@ -24,6 +24,11 @@ def test_inspect_json_on_a_real_object(gapartnet_dir, capsys):
     assert info["target_joint"]["type"] == "prismatic" and info["target_joint"]["range"] == [0.0, 0.87]
     assert info["handle"]["source"] == "handle"
     assert info["scene"]["collision_pieces"] >= 1 and 4 <= info["scene"]["max_hull_vertices"] <= 32
+    # every hand geom against every colliding piece, and MJX's buffers from the expert drag's probe
+    c = info["contacts"]
+    assert len(c["pairs"]) == info["scene"]["contact_pairs"] and all(a.startswith("R_") for a, _ in c["pairs"])
+    b = c["budget"]
+    assert 0 < b["probed_contacts"] < b["contacts"] < b["candidates"] and b["constraints"] >= 4 * b["contacts"]
 
 
 def test_inspect_text_and_picture(gapartnet_dir, tmp_path, capsys):
@@ -140,7 +145,7 @@ def test_bad_input_is_one_error_line_and_status_2(argv, tmp_path, capsys):
 FLAG_VALUES = {
     "task": {"alpha": 0.04, "control_dt": 1 / 30, "episode_length": 200, "history_len": 8, "aux_window": 3,
              "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0), "damping_fixed": 2.0,
-             "friction_range": (0.8, 1.2), "force_obs": True, "nthread": 1},
+             "friction_range": (0.8, 1.2), "force_obs": True, "nthread": 1, "contacts": 48},
     "scene": {"scale": 0.45, "object_pos": (0.55, 0.0, 0.6), "timestep": 1 / 120, "damping": 20.0, "armature": 0.01,
               "link_areal_density": 4.0, "friction": 1.2, "collide": "all", "collision_radius": 0.3,
               "gravity": False, "solver_iterations": 5, "ls_iterations": 6},

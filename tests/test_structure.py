@@ -23,7 +23,7 @@ FLOORS = (
 )
 FLOOR = {room: i for i, rooms in enumerate(FLOORS) for room in rooms}
 #: Optional packages imported where they are used, so the package works without them.
-OPTIONAL = {"mediapy"}
+OPTIONAL = {"mediapy", "warp"}
 
 
 def _modules() -> dict[str, ast.Module]:

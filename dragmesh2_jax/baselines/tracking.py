@@ -10,12 +10,10 @@ more than alpha. It tells apart what the increment interface allows from what a 
 from __future__ import annotations
 
 import functools
-import math
 
 import jax.numpy as jnp
 import numpy as np
 
-from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.task.protocol import Obs
@@ -25,22 +23,8 @@ TRACKING_DELTA = "tracking_delta"
 
 
 def drag_targets(task: PullTask, pace: float = 1.0) -> np.ndarray:
-    """Hand targets, one per control step: the frames after the drag start through the end of the first
-    contiguous drag block, each held for frame_dt / control_dt steps (1 for ours, 2 for the reference's
-    30 Hz files). At another ``pace`` the same path is resampled in time (0.5: twice as many steps, linearly
-    interpolated; 1: the frames themselves)."""
-    if not (math.isfinite(pace) and pace > 0):
-        raise DragMeshError(f"pace must be a positive number, got {pace}")
-    traj = task.traj
-    frame_dt = traj.header.get("scene", {}).get("frame_dt", 1.0 / 30.0)
-    hold = max(1, int(round(frame_dt / task.config.control_dt)))
-    start = traj.drag_start
-    end = next((b for p, a, b in traj.phase_blocks() if p == "drag" and a == start), len(traj.frames))
-    frames = [traj.frames[i].hand_target or traj.frames[i].hand_q for i in range(start + 1, end)]
-    targets = np.repeat(np.asarray(frames, np.float32), hold, axis=0)
-    n = len(targets)
-    t = np.linspace(0.0, n - 1.0, max(1, int(round(n / pace))))
-    return np.stack([np.interp(t, np.arange(n), targets[:, j]) for j in range(targets.shape[1])], 1).astype(np.float32)
+    """The task's expert drag as one hand PD target per control step, at ``pace`` (``Trajectory.drag_targets``)."""
+    return task.traj.drag_targets(task.config.control_dt, pace)
 
 
 def replay(targets: jnp.ndarray, obs: Obs, key) -> jnp.ndarray:

@@ -27,7 +27,7 @@ from dragmesh2_jax.policies.controller import Policy
 from dragmesh2_jax.task.env import PullTask, TaskData
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
-ACCUMULATED = ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret")
+ACCUMULATED = ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret", "overflow")
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,6 +73,7 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
             "steps": acc["steps"] + live, "l2": acc["l2"] + live * m["action_l2"],
             "clip": acc["clip"] + live * (m["action_abs_max"] > CLIP_LEVEL),
             "clip_active": acc["clip_active"] + live * (m["active_abs_max"] > CLIP_LEVEL),
+            "overflow": acc["overflow"] + live * m["overflow"],
             **{k: jnp.where(live, m[src], acc[k]) for k, src in (
                 ("success", "success"), ("detach", "detach"), ("progress", "progress"), ("ret", "episode_return"))},
         }
@@ -106,8 +107,10 @@ def rollout(task: PullTask, policy: Policy, params: Any, dampings: list[float], 
     """Run the rollout; host arrays: ``acc`` (per-world accumulations, see :func:`cells`) and with ``steps`` the
     per-step records ``q``, ``hand_q``, ``obj_q``, ``wrist_load``, ``live`` (steps x worlds [x DoFs])."""
     r = Rollout(task, policy, tuple(float(d) for d in np.repeat(dampings, episodes)), controls, steps, key)
-    out = jax.device_get(_run(r, task.data, params, jax.random.PRNGKey(seed)))
-    return jax.tree.map(np.asarray, out)
+    out = jax.tree.map(np.asarray, jax.device_get(_run(r, task.sized(len(r.scales)).data, params,
+                                                       jax.random.PRNGKey(seed))))
+    task.check_overflow(int(out["acc"]["overflow"].sum()), "evaluation")
+    return out
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:

@@ -12,7 +12,13 @@ of every function, so objects of the same model structure share one compiled pro
   * ``kinematics(data, ps)``  the few quantities the task reads: hand q/qd (51), target-joint q/qd, palm centre,
                         handle centre and handle axes (long, normal), world frame, and the contact-load sensors
                         (wrist force/torque, palm and phalanx normal forces). Positions and sensors are those
-                        MuJoCo computed at the start of the last substep (as ``mj_step`` leaves them).
+                        MuJoCo computed at the start of the last substep (as ``mj_step`` leaves them);
+  * ``overflow(data, ps)``  whether the world needed more contact or constraint room than the engine reserved
+                        (``physics/contacts.py``): the task reports it, the trainer and evaluator stop on it;
+  * ``sized(data, worlds)``  ``data`` for a batch of that many worlds (an engine whose buffers the batch shares
+                        sizes them; the others return ``data``).
+An engine whose state has fields the batch shares (MJX-Warp's contact buffer) gives its state a
+``where(done, other)`` that keeps them (``mjx.Data.where``; ``task.protocol.where`` merges states by it).
 """
 
 from __future__ import annotations
@@ -72,6 +78,7 @@ class Backend(Protocol):
     scene: Scene
     substeps: int
     data: Any  # this scene's backend data (a pytree)
+    budget: Any  # the contact budget of an engine with static buffers (physics/contacts.py), else None
 
     def signature(self) -> tuple: ...  # what besides ``data`` the compiled program depends on
 
@@ -80,6 +87,10 @@ class Backend(Protocol):
     def step(self, data: Any, ps: Any, ctrl: jnp.ndarray, fields: WorldFields) -> Any: ...
 
     def kinematics(self, data: Any, ps: Any) -> Kinematics: ...
+
+    def overflow(self, data: Any, ps: Any) -> jnp.ndarray: ...
+
+    def sized(self, data: Any, worlds: int) -> Any: ...
 
 
 #: A start state: (hand q (51), target-joint q), written at rest and settled (the expert grasp, or a perturbed one).

@@ -117,6 +117,7 @@ def _host_step(host, qpos, qvel, ctrl, fields):
 
 class MujocoBackend:
     name = "mujoco"
+    budget = None  # the C engine sizes its contacts and rows as it goes (its arena holds them)
 
     def __init__(self, scene: Scene, substeps: int, starts: list[Start], settle_substeps: int = 4,
                  nthread: int | None = None):
@@ -148,6 +149,12 @@ class MujocoBackend:
                                                 {k: jnp.asarray(v, dt) for k, v in fields.items()},
                                                 vmap_method="broadcast_all")
         return CState(qpos=qpos, qvel=qvel, sensors=sensors)
+
+    def overflow(self, data: CData, ps: CState) -> jnp.ndarray:
+        return jnp.bool_(False)
+
+    def sized(self, data: CData, worlds: int) -> CData:
+        return data
 
     def kinematics(self, data: CData, ps: CState) -> Kinematics:
         L = data.layout

@@ -14,6 +14,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import jax
 import orbax.checkpoint as ocp
 
 from dragmesh2_jax.errors import DragMeshError
@@ -28,7 +29,7 @@ def save_checkpoint(ts: TrainState, path: str | Path) -> Path:
     ck = ocp.StandardCheckpointer()
     try:
         ck.save(tmp / "learner", ts.replace(env_state=None))
-        ck.save(tmp / "env", ts.env_state)
+        ck.save(tmp / "env", _sized_leaves(ts.env_state))
         ck.wait_until_finished()
     finally:
         ck.close()
@@ -38,6 +39,16 @@ def save_checkpoint(ts: TrainState, path: str | Path) -> Path:
     tmp.rename(path)
     shutil.rmtree(old, ignore_errors=True)
     return path
+
+
+def _key(i: int) -> str:
+    return f"leaf_{i:05d}"
+
+
+def _sized_leaves(env_state) -> dict:
+    """The worlds' state as Orbax can write it: its leaves by position, without the empty ones (an engine state has
+    arrays of size 0, e.g. MJX's activations when no actuator has one, which Orbax refuses)."""
+    return {_key(i): x for i, x in enumerate(jax.tree.leaves(env_state)) if x.size}
 
 
 def is_checkpoint(path: str | Path) -> bool:
@@ -54,7 +65,11 @@ def load_checkpoint(template: TrainState, path: str | Path, keep_env: bool = Fal
     ck = ocp.StandardCheckpointer()
     try:
         ts = ck.restore((path / "learner").absolute(), template.replace(env_state=None))
-        env = template.env_state if keep_env else ck.restore((path / "env").absolute(), template.env_state)
+        env = template.env_state
+        if not keep_env:
+            restored = ck.restore((path / "env").absolute(), _sized_leaves(env))
+            leaves, treedef = jax.tree.flatten(env)
+            env = jax.tree.unflatten(treedef, [restored.get(_key(i), x) for i, x in enumerate(leaves)])
     except Exception as e:  # orbax and tensorstore raise many types for a damaged or mismatched checkpoint
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         raise DragMeshError(f"{path}: checkpoint does not match this method/config or is damaged "

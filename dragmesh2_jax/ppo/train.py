@@ -31,6 +31,7 @@ import numpy as np
 import optax
 from flax import struct
 
+from dragmesh2_jax.physics.batch import map_batched
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.policies.methods import Method
 from dragmesh2_jax.policies.networks import ActorCritic, make_inference_fn
@@ -100,6 +101,11 @@ class TrainProgram:
     def make_policy(self) -> Callable:
         """``deterministic -> policy(policy_params(ts), obs, key) -> action`` (Brax's ``make_inference_fn``)."""
         return make_inference_fn(self.net, self.config.normalize_obs)
+
+    def data(self, runs: int = 1) -> TaskData:
+        """The task's data for ``runs`` runs of ``config.num_envs`` worlds (an engine whose buffers the batch
+        shares sizes them for it)."""
+        return self.task.sized(runs * self.config.num_envs).data
 
     def controller(self, ts: TrainState) -> Controller:
         """The trained policy of ``ts`` as the evaluator's controller."""
@@ -242,7 +248,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
         "success": at_end(m["success"]), "progress": at_end(m["progress"]), "detach": at_end(m["detach"]),
         "episode_return": at_end(m["episode_return"]), "clip099": jnp.mean(m["action_abs_max"] > CLIP_LEVEL),
         "clip099_active": jnp.mean(m["active_abs_max"] > CLIP_LEVEL),
-        "action_l2": m["action_l2"].mean(), "nonfinite": m["nonfinite"].sum(),
+        "action_l2": m["action_l2"].mean(), "nonfinite": m["nonfinite"].sum(), "overflow": m["overflow"].sum(),
     }
     aram = program.task.config.reward.aram
     if aram is not None:
@@ -277,7 +283,7 @@ def epoch_runs(program: TrainProgram, data: TaskData, ts: TrainState,
     """One epoch of R runs at once: every leaf of ``ts`` (and of the metrics) has a leading run axis. With
     ``mesh`` (one axis, ``RUN_AXIS``) the runs are split over its devices, R a multiple of its size."""
     if mesh is None and ts.epoch.shape[0] == 1:  # one run: the unbatched program (its lax.cond stays a branch)
-        return jax.tree.map(lambda x: x[None], epoch_jit(program, data, jax.tree.map(lambda x: x[0], ts)))
+        return map_batched(lambda x: x[None], epoch_jit(program, data, map_batched(lambda x: x[0], ts)))
     if mesh is not None:  # runs split over the devices, the object's data on every device (no-ops once placed)
         P = jax.sharding.PartitionSpec
         data = jax.device_put(data, jax.sharding.NamedSharding(mesh, P()))
@@ -298,7 +304,12 @@ def seed_keys(seeds: list[int]) -> jax.Array:
 
 
 def take_run(ts: TrainState, i: int) -> TrainState:
-    return jax.tree.map(lambda x: x[i], ts)
+    return map_batched(lambda x: x[i], ts)
+
+
+def stack_runs(states: list[TrainState]) -> TrainState:
+    """Runs' states on a leading run axis (what ``init_runs`` gives)."""
+    return map_batched(lambda *xs: jnp.stack(xs), *states)
 
 
 def train(program: TrainProgram, data: TaskData, ts: TrainState, epochs: int, mesh=None,
@@ -307,6 +318,8 @@ def train(program: TrainProgram, data: TaskData, ts: TrainState, epochs: int, me
     array per metric, one value per run) go to ``on_epoch`` (logs, checkpoints, robustness checks)."""
     for _ in range(int(ts.epoch[0]), epochs):
         ts, m = epoch_runs(program, data, ts, mesh)
+        m = {k: np.asarray(v, np.float64) for k, v in jax.device_get(m).items()}
+        program.task.check_overflow(int(m["overflow"].sum()), f"epoch {int(ts.epoch[0])}")
         if on_epoch is not None:
-            on_epoch(ts, {k: np.asarray(v, np.float64) for k, v in jax.device_get(m).items()})
+            on_epoch(ts, m)
     return ts

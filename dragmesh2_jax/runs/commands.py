@@ -13,6 +13,7 @@ from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES, envelope, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
+from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint
 from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.ppo.train import TrainProgram, TrainState, init_jit, seed_keys
@@ -22,6 +23,8 @@ from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.runs.spec import finetune_spec, method_spec
 from dragmesh2_jax.scene import SceneConfig, build_scene
+from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.env import contact_budget, reset_starts
 from dragmesh2_jax.trajectory.generator import generate
 from dragmesh2_jax.trajectory.schema import write_trajectory
 
@@ -48,12 +51,23 @@ def describe_object(folder: str, scene_config: SceneConfig = SceneConfig(), rend
     scene = build_scene(obj, scene_config)
     info = obj.summary()
     info["scene"] = scene.stats
+    info["contacts"] = contact_summary(scene)
     info["handle_world"] = {"centre": [round(float(x), 5) for x in scene.handle.centre],
                             "thickness_m": round(scene.handle.thickness, 5)}
     if render:
         info["render"] = {"path": str(render), "renderer": render_png(scene.model, scene.initial_data(), render,
                                                                      target=scene.handle.centre)}
     return info
+
+
+def contact_summary(scene) -> dict:
+    """The geom pairs that can collide and MJX's buffers for them (the expert drag's probe and its budget)."""
+    out = {"pairs": contacts.pairs(scene)}
+    try:
+        traj = generate(scene.obj, scene=scene)
+    except DragMeshError as e:
+        return {**out, "budget": None, "note": f"no expert drag to probe ({e})"}
+    return {**out, "budget": contact_budget(scene, traj, TaskConfig(), reset_starts(scene, traj, None)).to_json()}
 
 
 def make_trajectory(object_dir: str, out: str, render: str | None = None):
@@ -95,11 +109,11 @@ def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "ja
     spec = run.spec()
     trained_on = run.backend
     program = program_of(spec.on(backend or trained_on, impl), run.trajectory())
-    fresh = init_jit(program, program.task.data, seed_keys([spec.ppo.seed])[0])
+    fresh = init_jit(program, program.data(), seed_keys([spec.ppo.seed])[0])
     if program.task.backend.name == trained_on:
         return program, load_checkpoint(fresh, ck, keep_env=keep_env), run, ck
     source = program_of(spec.on(trained_on, impl), run.trajectory())
-    src = load_checkpoint(init_jit(source, source.task.data, seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
+    src = load_checkpoint(init_jit(source, source.data(), seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
     return program, fresh.replace(params=src.params, state_stats=src.state_stats, token_stats=src.token_stats,
                                   aux_stats=src.aux_stats, privileged_stats=src.privileged_stats,
                                   value_stats=src.value_stats, epoch=src.epoch, aram_lambda=src.aram_lambda), run, ck
@@ -117,7 +131,7 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
     spec = finetune_spec(run.spec().on(parent.task.backend.name, impl), recipe, str(ck.resolve()),
                          int(ts.epoch) + more)
     program = program_of(spec, run.trajectory())
-    start = load_checkpoint(init_jit(program, program.task.data, seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
+    start = load_checkpoint(init_jit(program, program.data(), seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
     _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=run.trajectory(), resume=False, start=start,
                                  save_every=save_every, selection=selection, progress=progress)
     return ck, logs[0]

@@ -64,7 +64,8 @@ class RunDir:
         return self.record_path.is_file()
 
     # ----------------------------------------------------------------------------------- the record
-    def start(self, spec: RunSpec, backend: str, trajectory: Trajectory, replace: bool = False) -> None:
+    def start(self, spec: RunSpec, backend: str, trajectory: Trajectory, replace: bool = False,
+              buffers: dict | None = None) -> None:
         """Write the record and the trajectory of a new run (once: a folder that holds a run is an error unless
         ``replace``, for a run that stopped before it saved anything)."""
         if self.exists() and not replace:
@@ -73,7 +74,7 @@ class RunDir:
             shutil.rmtree(self.path)
         self.path.mkdir(parents=True, exist_ok=True)
         write_trajectory(trajectory, self.trajectory_path)
-        atomic_write_json(self.record_path, spec.record(backend))
+        atomic_write_json(self.record_path, spec.record(backend, buffers))
         self._record = None
 
     def record(self) -> dict:

@@ -14,7 +14,6 @@ import sys
 import time
 from dataclasses import dataclass
 
-import jax
 import numpy as np
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from tensorboardX import SummaryWriter
@@ -31,6 +30,7 @@ from dragmesh2_jax.ppo.train import (
     policy_params,
     run_mesh,
     seed_keys,
+    stack_runs,
     take_run,
     train,
 )
@@ -129,9 +129,9 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
         spec = recorded.on(backend, impl) if backend else recorded
         seeds = [r.spec().ppo.seed for r in runs]
         program = program_of(spec, runs[0].trajectory())
-        template = init_jit(program, program.task.data, seed_keys(seeds[:1])[0])
+        template = init_jit(program, program.data(), seed_keys(seeds[:1])[0])
         states = [load_checkpoint(template, r.epoch_checkpoints()[common]) for r in runs]
-        ts = jax.tree.map(lambda *x: jax.numpy.stack(x), *states)
+        ts = stack_runs(states)
         rows = [r.log_rows(common) for r in runs]
         robust_rows = [r.robust_rows(common) for r in runs]
     else:
@@ -142,9 +142,10 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
                 raise DragMeshError(f"{r.path}: already holds a run (use --resume, or another --out)")
         program = program_of(spec, trajectory)
         for r, s in zip(runs, seeds, strict=True):  # one stopped before its first checkpoint starts again
-            r.start(spec.with_seed(s), program.task.backend.name, program.task.traj, replace=True)
-        ts = init_runs(program, program.task.data, seed_keys(seeds)) if start is None else jax.tree.map(
-            lambda x: x[None], start)
+            budget = program.task.backend.budget
+            r.start(spec.with_seed(s), program.task.backend.name, program.task.traj, replace=True,
+                    buffers=None if budget is None else budget.to_json())
+        ts = init_runs(program, program.data(len(seeds)), seed_keys(seeds)) if start is None else stack_runs([start])
         rows, robust_rows = [[] for _ in runs], [[] for _ in runs]
     target = epochs or spec.ppo.epochs
     ts = _loop(program, runs, ts, rows, robust_rows, target, resume, save_every, selection, progress, log_fn)
@@ -201,7 +202,7 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
             bar.update(e, f"reward {mean['reward']:.2f}  success {mean['success']:.2f}  progress "
                           f"{mean['progress']:.2f}  clip099 {mean['clip099']:.2f}")
 
-        ts = train(program, program.task.data, ts, epochs, run_mesh(len(runs)), on_epoch)
+        ts = train(program, program.data(len(runs)), ts, epochs, run_mesh(len(runs)), on_epoch)
     for i, run in enumerate(runs):
         save_checkpoint(take_run(ts, i), run.checkpoint("final"))
     return ts

@@ -51,10 +51,10 @@ class RunSpec:
         """The same run on another engine."""
         return dataclasses.replace(self, task=dataclasses.replace(self.task, backend=backend, impl=impl))
 
-    def record(self, backend: str) -> dict:
-        """The record of this spec (``backend``: the engine it resolved to)."""
+    def record(self, backend: str, buffers: dict | None = None) -> dict:
+        """The record of this spec (``backend``: the engine it resolved to; ``buffers``: MJX's contact budget)."""
         return {"format": RECORD_FORMAT, "method": self.method, "object": str(Path(self.object).resolve()),
-                "finetune": self.finetune, "parent": self.parent, "backend": backend,
+                "finetune": self.finetune, "parent": self.parent, "backend": backend, "buffers": buffers,
                 "ppo": config_to_dict(self.ppo), "task": config_to_dict(self.task),
                 "scene": config_to_dict(self.scene), "network": config_to_dict(self.network), "versions": versions()}
 

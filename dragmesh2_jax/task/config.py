@@ -123,6 +123,7 @@ class TaskConfig:
     force_obs: bool = False  # beyond the paper: contact-load sensors in s_t and in every history token
     backend: str = "auto"  # "mjx" | "mujoco" | "auto" (MJX on an accelerator, the C engine on a CPU)
     impl: str = "jax"  # MJX implementation: "jax" | "warp"
+    contacts: int | None = None  # MJX contact slots per world (None: sized from a probe, physics/contacts.py)
     nthread: int | None = None  # C backend threads (default: all cores)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
@@ -146,6 +147,8 @@ class TaskConfig:
                 all(math.isfinite(x) for x in self.friction_range) and 0 <= self.friction_range[0]
                 <= self.friction_range[1]):
             raise DragMeshError(f"friction_range must satisfy 0 <= lo <= hi, got {self.friction_range}")
+        if self.contacts is not None and self.contacts < 1:
+            raise DragMeshError(f"contacts per world must be >= 1, got {self.contacts}")
         if not 0 < self.rho <= 1:
             raise DragMeshError(f"rho must be in (0, 1], got {self.rho}")
 

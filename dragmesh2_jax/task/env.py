@@ -47,8 +47,10 @@ from flax import struct
 
 from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.base import Backend, Kinematics, Start, WorldFields
-from dragmesh2_jax.physics.mjx_backend import MjxBackend
+from dragmesh2_jax.physics.contacts import ContactBudget
+from dragmesh2_jax.physics.mjx_backend import MjxBackend, candidates
 from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
@@ -138,15 +140,29 @@ def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start
     return starts
 
 
-def make_backend(scene: Scene, config: TaskConfig, starts: list[Start]) -> Backend:
+def substeps_of(scene: Scene, config: TaskConfig) -> int:
     substeps = config.control_dt / scene.config.timestep
     if abs(substeps - round(substeps)) > 1e-6 or round(substeps) < 1:
         raise DragMeshError(f"control_dt {config.control_dt} is not a whole number of timesteps "
                             f"{scene.config.timestep}")
-    args = (scene, int(round(substeps)), starts, config.settle_substeps)
+    return int(round(substeps))
+
+
+def contact_budget(scene: Scene, traj: Trajectory, config: TaskConfig, starts: list[Start]) -> ContactBudget:
+    """MJX's buffers for the task: the expert drag probed on the C engine from the first starts, with the budget's
+    margin (``config.contacts`` overrides the contact slots)."""
+    probed = contacts.probe(scene, starts[:contacts.PROBE_STARTS], traj.drag_targets(config.control_dt),
+                            substeps_of(scene, config), config.settle_substeps)
+    return ContactBudget.of(*probed, candidates(scene.model), contacts.limited_dofs(scene), config.contacts)
+
+
+def make_backend(scene: Scene, config: TaskConfig, starts: list[Start], traj: Trajectory) -> Backend:
+    """The task's physics engine (MJX's buffers from :func:`contact_budget`)."""
+    substeps = substeps_of(scene, config)
     if config.resolved_backend() == "mjx":
-        return MjxBackend(*args, impl=config.impl)
-    return MujocoBackend(*args, nthread=config.nthread)
+        return MjxBackend(scene, substeps, starts, contact_budget(scene, traj, config, starts), config.settle_substeps,
+                          impl=config.impl)
+    return MujocoBackend(scene, substeps, starts, config.settle_substeps, nthread=config.nthread)
 
 
 @struct.dataclass
@@ -170,7 +186,7 @@ class PullTask:
         check_trajectory_matches(scene, traj)
         self.scene, self.traj, self.config = scene, traj, config
         starts = reset_starts(scene, traj, config.reset_noise, start, config.rho)
-        self.backend = make_backend(scene, config, starts)
+        self.backend = make_backend(scene, config, starts, traj)
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
         params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
                             q_done=jnp.float32(traj.q_done_at(config.rho)), damping=jnp.float32(scene.config.damping),
@@ -183,6 +199,11 @@ class PullTask:
         self.active = jnp.asarray(scene.config.active_dofs())
         self.substeps = self.backend.substeps
 
+    def check_overflow(self, count: int, where: str) -> None:
+        """A clear error when ``count`` world-steps overflowed the engine's contact or constraint buffers."""
+        if count:
+            raise DragMeshError(contacts.overflow_message(self.backend.budget, count, where))
+
     @property
     def num_starts(self) -> int:
         return self.data.start_ctrl.shape[0]
@@ -192,6 +213,10 @@ class PullTask:
         task = copy.copy(self)
         task.data = data
         return task
+
+    def sized(self, worlds: int) -> PullTask:
+        """This task for a batch of ``worlds`` worlds (the engine's shared buffers sized for them)."""
+        return self.bind(self.data.replace(physics=self.backend.sized(self.data.physics, worlds)))
 
     def signature(self) -> tuple:
         """What the compiled functions depend on besides ``data`` (and its shapes, and on MJX the model's static
@@ -359,6 +384,7 @@ class PullTask:
     def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray) -> State:
         c, info = self.config, state.info
         ps, k, finite = self._physics(state, ctrl)
+        overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
         reward, reward_state = self._reward(state, a, k, ev, finite)
         # observation
@@ -377,7 +403,8 @@ class PullTask:
             "detach": ev.detach.astype(jnp.float32), "truncated": ev.truncated.astype(jnp.float32),
             "action_abs_max": jnp.max(jnp.abs(a)), "active_abs_max": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
             "action_l2": jnp.linalg.norm(a), "palm_dist": ev.d.astype(jnp.float32), "reward": reward,
-            "nonfinite": (~finite).astype(jnp.float32), "episode_return": ep_return,
+            "nonfinite": (~finite).astype(jnp.float32), "overflow": overflow.astype(jnp.float32),
+            "episode_return": ep_return,
             "episode_length": ev.step.astype(jnp.float32), "q": ev.q,
         }
         return State(physics=ps, obs=obs, reward=reward, done=ev.terminated | ev.truncated, terminated=ev.terminated,

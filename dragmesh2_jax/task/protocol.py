@@ -27,7 +27,7 @@ from flax import struct
 CLIP_LEVEL = 0.99
 #: Metric names of every step (one scalar per world, for the step just taken).
 METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "active_abs_max", "action_l2", "palm_dist",
-           "reward", "nonfinite", "episode_return", "episode_length", "q")
+           "reward", "nonfinite", "overflow", "episode_return", "episode_length", "q")
 
 
 @struct.dataclass
@@ -68,6 +68,14 @@ class Env(Protocol):
         """A new episode for the world of ``state`` (its episode ended): fresh randomisation, but what the world
         fixes (an evaluation cell's damping) is kept. ``wrappers.AutoReset`` calls it."""
         ...
+
+
+def where(done: jnp.ndarray, fresh: Any, current: Any) -> Any:
+    """``fresh`` where ``done``, else ``current`` (a world's physics state): a state with a ``where`` of its own merges
+    by it (``mjx.Data.where``: MJX-Warp's state holds buffers the batch shares, which it keeps)."""
+    if hasattr(current, "where"):
+        return current.where(done, fresh)
+    return jax.tree.map(lambda x, y: jnp.where(done, x, y), fresh, current)
 
 
 def observation_spec(env: Env) -> Obs:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from dragmesh2_jax.task.protocol import Env, State
+from dragmesh2_jax.task.protocol import Env, State, where
 
 
 class AutoReset:
@@ -38,6 +38,6 @@ class AutoReset:
         fresh = self.env.restart(new)
         pick = lambda x, y: jnp.where(new.done, x, y)  # noqa: E731
         keep = {"rng": fresh.info["rng"]}  # the world's rng moves on whether or not it restarted
-        return new.replace(physics=jax.tree.map(pick, fresh.physics, new.physics),
+        return new.replace(physics=where(new.done, fresh.physics, new.physics),
                            obs=jax.tree.map(pick, fresh.obs, new.obs),
                            info=jax.tree.map(pick, fresh.info, {**new.info, **keep}))

@@ -18,6 +18,7 @@ Task quantities derived from a trajectory (paper eq. done/progress; facts §4):
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -132,6 +133,26 @@ class Trajectory:
                 out.append((ph[start], start, i))
                 start = i
         return out
+
+    def drag_targets(self, control_dt: float, pace: float = 1.0) -> np.ndarray:
+        """The expert drag as hand PD targets, one per control step of ``control_dt``: the frames after the drag
+        start through the end of the first contiguous drag block, each held for frame_dt / control_dt steps (1 for
+        ours, 2 for the reference's 30 Hz files). At another ``pace`` the same path is resampled in time (0.5: twice
+        as many steps, linearly interpolated; 1: the frames themselves)."""
+        if not (math.isfinite(pace) and pace > 0):
+            raise DragMeshError(f"pace must be a positive number, got {pace}")
+        frame_dt = self.header.get("scene", {}).get("frame_dt", 1.0 / 30.0)
+        hold = max(1, int(round(frame_dt / control_dt)))
+        start = self.drag_start
+        end = next((b for p, a, b in self.phase_blocks() if p == "drag" and a == start), len(self.frames))
+        frames = [self.frames[i].hand_target or self.frames[i].hand_q for i in range(start + 1, end)]
+        if not frames:  # a drag block of one frame: hold the grasp
+            frames = [self.frames[start].hand_target or self.frames[start].hand_q]
+        targets = np.repeat(np.asarray(frames, np.float32), hold, axis=0)
+        n = len(targets)
+        t = np.linspace(0.0, n - 1.0, max(1, int(round(n / pace))))
+        return np.stack([np.interp(t, np.arange(n), targets[:, j]) for j in range(targets.shape[1])],
+                        1).astype(np.float32)
 
     def to_json(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "header": self.header,

@@ -47,7 +47,7 @@ class PointMass:
         x = jax.random.uniform(k, (2,), minval=-1, maxval=1)
         zero = jnp.float32(0)
         m = {k: zero for k in ("success", "progress", "detach", "episode_return", "action_abs_max",
-                               "active_abs_max", "action_l2", "nonfinite")}
+                               "active_abs_max", "action_l2", "nonfinite", "overflow")}
         return State(physics=x, obs=self._obs(x), reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
                      truncated=jnp.bool_(False), final_obs=self._obs(x), metrics=m,
                      info={"rng": key, "t": jnp.int32(0), "ret": zero})
@@ -61,7 +61,8 @@ class PointMass:
         ret = s.info["ret"] + r
         m = {"success": (jnp.linalg.norm(x) < 0.1).astype(jnp.float32), "progress": jnp.float32(0),
              "detach": jnp.float32(0), "episode_return": ret, "action_abs_max": jnp.abs(a).max(),
-             "active_abs_max": jnp.abs(a).max(), "action_l2": jnp.linalg.norm(a), "nonfinite": jnp.float32(0)}
+             "active_abs_max": jnp.abs(a).max(), "action_l2": jnp.linalg.norm(a), "nonfinite": jnp.float32(0),
+             "overflow": jnp.float32(0)}
         return State(physics=x, obs=self._obs(x), reward=r, done=trunc, terminated=jnp.bool_(False), truncated=trunc,
                      final_obs=self._obs(x), metrics=m, info={**s.info, "t": t, "ret": ret})
 

@@ -29,7 +29,6 @@ from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.env import PullTask
-from dragmesh2_jax.trajectory.generator import generate
 from tests.conftest import tiny_program, tiny_spec
 
 OBJ = str(default_object())
@@ -131,14 +130,14 @@ def test_multi_seed_run_writes_a_folder_per_seed_and_resumes_exactly(tmp_path):
 
 @pytest.mark.mjx
 def test_mjx_model_is_data_same_object_other_damping_shares_the_program():
-    """On MJX the model's static fields (geometry included) fix the program; the nominal damping is data. The
-    program is the load-aware preset's (force-aware observation, privileged critic): those train on MJX too."""
+    """On MJX the model's static fields (geometry and the contact budget included) fix the program; the nominal
+    damping is data. The program is the load-aware preset's (force-aware observation, privileged critic): those
+    train on MJX too."""
     obj = load_gapartnet(OBJ)
     base = tiny_program("pica_load", backend="mjx", num_envs=2, rollout_len=2)
-    tasks = []
-    for damping in (10.0, 40.0):
-        scene = build_scene(obj, SceneConfig(damping=damping))
-        tasks.append(PullTask(scene, generate(obj, scene=scene), base.task.config))
+    tasks = [PullTask(build_scene(obj, SceneConfig(damping=damping)), base.task.traj, base.task.config)
+             for damping in (10.0, 40.0)]
+    assert tasks[0].backend.budget.contacts == tasks[1].backend.budget.contacts
     programs = [make_train(t, base.method, base.config) for t in tasks]
     states, compiled = _first_epochs(programs)
     assert compiled == 1

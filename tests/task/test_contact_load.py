@@ -21,7 +21,7 @@ from tests.conftest import tiny_program
 OBJ = str(default_object())
 
 
-def _forces(task, steps=10, n=2):
+def forces(task, steps=10, n=2):
     reset, step = make_batched(task)
 
     def run(keys):
@@ -38,7 +38,7 @@ def _forces(task, steps=10, n=2):
 
 def test_force_observation_layout_and_privileged_block():
     task = load_task(OBJ, None, backend="mujoco", force_obs=True)
-    force, obs = _forces(task)
+    force, obs = forces(task)
     assert obs.state.shape[-1] == STATE_SIZE + FORCE_SIZE and obs.history.shape[-1] == TOKEN_SIZE + FORCE_SIZE
     assert obs.privileged.shape[-1] == PRIVILEGED_SIZE
     load = np.sign(force) * np.log1p(np.abs(force))
@@ -60,7 +60,7 @@ def test_contact_load_preset_trains_on_the_c_backend():
 def test_contact_sensors_agree_between_backends():
     """Same start, same zero actions for 10 control steps: wrist force within 2 N + 15% and the summed
     palm/phalanx normal force within 20% (measured: 1.2 N and 12% on the packaged drawer)."""
-    out = {b: _forces(load_task(OBJ, None, backend=b, force_obs=True))[0] for b in ("mujoco", "mjx")}
+    out = {b: forces(load_task(OBJ, None, backend=b, force_obs=True))[0] for b in ("mujoco", "mjx")}
     c, j = out["mujoco"], out["mjx"]
     fc, fj = np.linalg.norm(c[..., :3], axis=-1), np.linalg.norm(j[..., :3], axis=-1)
     assert np.all(np.abs(fc - fj) <= 2.0 + 0.15 * fc)

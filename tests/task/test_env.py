@@ -133,7 +133,7 @@ def test_non_finite_world_is_reset_and_counted_without_poisoning_others(drawer_t
         """Wraps the backend: world whose damping is 8x goes NaN."""
 
         name, scene, substeps = real.name, real.scene, real.substeps
-        reset_state, kinematics = real.reset_state, real.kinematics
+        reset_state, kinematics, overflow, sized = real.reset_state, real.kinematics, real.overflow, real.sized
 
         def step(self, data, ps, ctrl, fields):
             out = real.step(data, ps, ctrl, fields)

@@ -1,0 +1,51 @@
+"""MJX's buffers are sized from a probe of the expert drag (physics/contacts.py): the probe counts what the C engine
+finds, the budget adds a margin, MJX-JAX keeps that many contact slots, and a world that needs more is reported."""
+
+import pytest
+
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.physics import contacts
+from dragmesh2_jax.physics.contacts import ContactBudget
+from dragmesh2_jax.physics.mjx_backend import MjxBackend
+from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.env import PullTask, contact_budget, reset_starts
+
+
+def test_the_probe_counts_the_grasp_and_the_budget_adds_its_margin(drawer_task):
+    task = drawer_task
+    targets = task.traj.drag_targets(task.config.control_dt)
+    n_con, n_efc = contacts.probe(task.scene, reset_starts(task.scene, task.traj, None), targets, task.substeps,
+                                  task.config.settle_substeps)
+    assert 3 <= n_con <= 40 and n_efc >= contacts.ROWS_PER_CONTACT * n_con  # a grasp, and its rows
+    b = ContactBudget.of(n_con, n_efc, candidates=238, limited_dofs=52)
+    assert b.contacts % contacts.QUANTUM == 0 and 0 <= b.contacts - (contacts.MARGIN * n_con + contacts.EXTRA) < 16
+    assert b.constraints == contacts.ROWS_PER_CONTACT * b.contacts + 52
+    assert ContactBudget.of(n_con, n_efc, candidates=10, limited_dofs=52).contacts == 10  # never above what exists
+    with pytest.raises(DragMeshError):
+        ContactBudget.of(n_con, n_efc, candidates=238, limited_dofs=52, contacts=0)
+
+
+def test_mjx_jax_keeps_the_budget_and_a_full_world_is_an_overflow(drawer_task):
+    """The packaged drawer on MJX-JAX: 238 candidate contacts per world, the budget's slots kept
+    (``max_contact_points``); with as many slots as the settled grasp has contacts the world is full (an overflow),
+    with fewer it cannot even start. Nothing compiles: the bank's states and the check are evaluated as they are."""
+    t = drawer_task
+    starts = reset_starts(t.scene, t.traj, None)
+    budget = lambda n=None: contact_budget(t.scene, t.traj, TaskConfig(contacts=n), starts)  # noqa: E731
+    roomy = MjxBackend(t.scene, t.substeps, starts, budget())
+    assert roomy.budget.candidates == 238 and roomy.capped
+    assert roomy.buffers["contact_slots"] == roomy.budget.contacts < 238
+    grasp = roomy.reset_state(roomy.data, 0)
+    assert not bool(roomy.overflow(roomy.data, grasp))
+    n_grasp = t.scene.settled_state(*starts[0]).ncon
+    full = MjxBackend(t.scene, t.substeps, starts, budget(n_grasp))
+    assert full.buffers["contact_slots"] == n_grasp and bool(full.overflow(full.data, full.reset_state(full.data, 0)))
+    with pytest.raises(DragMeshError, match=f"a start state has {n_grasp} contacts"):
+        MjxBackend(t.scene, t.substeps, starts, budget(n_grasp - 1))
+
+
+def test_an_overflow_is_one_clear_error(drawer_task):
+    task = PullTask(drawer_task.scene, drawer_task.traj, TaskConfig(backend="mjx", contacts=40))
+    task.check_overflow(0, "evaluation")
+    with pytest.raises(DragMeshError, match=r"in 3 world-steps \(evaluation\).*40 contacts.*--task\.contacts"):
+        task.check_overflow(3, "evaluation")

@@ -1,0 +1,91 @@
+"""MJX's Warp implementation as a tested engine on a CPU (its kernels run there too): the expert drag's verdicts and
+the contact-load sensors agree with the C engine, PPO trains on it, each world's damping reaches its physics, and a
+buffer too small for the contacts is reported, never dropped. One worker runs them all: Warp compiles its kernels
+once per process (and caches them on disk)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.baselines.tracking import tracking_controller
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.evaluate import track
+from dragmesh2_jax.evaluation.protocol import SELECTION
+from dragmesh2_jax.evaluation.rollout import rollout
+from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.trajectory.generator import generate
+from tests.conftest import REAL_OBJECTS, require_warp, tiny_spec
+from tests.task.test_contact_load import forces
+
+pytestmark = pytest.mark.xdist_group("warp")
+OBJ = str(default_object())
+DAMPINGS = [1.0, 2.0, 4.0]
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _warp():
+    require_warp()
+
+
+def _warp_task(obj, traj=None, **task):
+    return load_task(obj, traj, backend="mjx", impl="warp", **task)
+
+
+@pytest.mark.parametrize("oid", REAL_OBJECTS)
+def test_tracking_verdicts_agree_with_the_c_engine(gapartnet_dir, oid):
+    """The expert drag from the exact start at x1/x2/x4, each episode to its end: opened (or not) on Warp where it is
+    on the C engine."""
+    traj = generate(load_gapartnet(gapartnet_dir / oid))
+    c = track(load_task(str(gapartnet_dir / oid), traj, backend="mujoco"), DAMPINGS)
+    w = track(_warp_task(str(gapartnet_dir / oid), traj), DAMPINGS)
+    assert [x["success_rate"] for x in w] == [x["success_rate"] for x in c] and w[0]["success_rate"] == 1.0
+
+
+def test_contact_sensors_agree_with_the_c_engine():
+    """Same start, zero actions, 10 control steps: the same tolerance as MJX-JAX's (tests/task/test_contact_load.py):
+    wrist force within 2 N + 15%, summed palm/phalanx normal force within 20% + 1 N."""
+    c, w = (forces(t)[0] for t in (load_task(OBJ, None, backend="mujoco", force_obs=True),
+                                   _warp_task(OBJ, force_obs=True)))
+    fc, fw = np.linalg.norm(c[..., :3], axis=-1), np.linalg.norm(w[..., :3], axis=-1)
+    assert np.all(np.abs(fc - fw) <= 2.0 + 0.15 * fc)
+    tc, tw = c[..., 6:].sum(-1), w[..., 6:].sum(-1)
+    assert np.all(np.abs(tc - tw) <= 0.2 * tc + 1.0) and tw.max() > 1.0
+
+
+def test_a_training_run_records_its_buffers(tmp_path):
+    """Two epochs of the load-aware preset with a robustness check; the run record keeps the contact budget."""
+    run = RunDir(tmp_path / "run")
+    spec = tiny_spec("pica_load", backend="mjx", impl="warp", epochs=2)
+    program, ts, (rows,) = start_or_resume(spec, [run], resume=False, progress=False,
+                                           selection=Selection(every=2, protocol=dataclasses.replace(
+                                               SELECTION, dampings=(1.0,), episodes=2)))
+    assert [r["epoch"] for r in rows] == [1, 2] and all(np.isfinite(r["loss"]) and r["overflow"] == 0 for r in rows)
+    assert run.record()["backend"] == "mjx" and run.spec().task.impl == "warp"
+    assert run.record()["buffers"] == program.task.backend.budget.to_json()
+    assert run.robust_rows()[0]["epoch"] == 2
+
+
+def test_each_worlds_damping_reaches_its_physics():
+    """The same expert targets in worlds at x1 and x8: the stiffer part has opened less after 60 steps."""
+    task = _warp_task(OBJ)
+    c = tracking_controller(task)
+    q = rollout(task, c.make_policy(True), c.params, [1.0, 8.0], controls=c.controls, steps=60, key=c.key)["q"][-1]
+    assert q[0] > q[1] + 1e-3 > task.traj.q_start + 1e-3
+
+
+def test_a_buffer_too_small_for_the_contacts_is_an_error():
+    """Room for the grasp's contacts but not for the drag's (the probe finds more as the hand pulls): the
+    evaluation stops with the overflow; room for fewer than the grasp's: the task cannot be built."""
+    task = _warp_task(OBJ)
+    grasp = task.scene.settled_state(task.traj.frames[task.traj.drag_start].hand_q,
+                                     task.traj.target_q[task.traj.drag_start]).ncon
+    assert task.backend.budget.probed_contacts > grasp
+    with pytest.raises(DragMeshError, match="overflowed in .* world-steps \\(evaluation\\)"):
+        track(_warp_task(OBJ, contacts=grasp), [1.0])
+    with pytest.raises(DragMeshError, match=f"a start state has {grasp} contacts"):
+        _warp_task(OBJ, contacts=grasp - 1)
