@@ -1,10 +1,11 @@
 """MJX's Warp implementation as a tested engine on a CPU (its kernels run there too): the expert drag's verdicts and
-the contact-load sensors agree with the C engine, PPO trains on it, each world's damping reaches its physics, and a
-buffer too small for the contacts is reported, never dropped. One worker runs them all: Warp compiles its kernels
-once per process (and caches them on disk)."""
+the contact-load sensors agree with the C engine, PPO trains on it (the model is data, seeds vmap as one program),
+each world's damping reaches its physics, and a buffer too small for the contacts is reported, never dropped. One
+worker runs them all: Warp compiles its kernels once per process (and caches them on disk)."""
 
 import dataclasses
 
+import jax
 import numpy as np
 import pytest
 
@@ -15,11 +16,14 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import track
 from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.evaluation.rollout import rollout
+from dragmesh2_jax.ppo.train import epoch_jit, epoch_runs, init_jit, init_runs, make_train, policy_params, seed_keys
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.scene import SceneConfig, build_scene
+from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.trajectory.generator import generate
-from tests.conftest import REAL_OBJECTS, require_warp, tiny_spec
+from tests.conftest import REAL_OBJECTS, require_warp, tiny_program, tiny_spec
 from tests.task.test_contact_load import forces
 
 pytestmark = pytest.mark.xdist_group("warp")
@@ -89,3 +93,33 @@ def test_a_buffer_too_small_for_the_contacts_is_an_error():
         track(_warp_task(OBJ, contacts=grasp), [1.0])
     with pytest.raises(DragMeshError, match=f"a start state has {grasp} contacts"):
         _warp_task(OBJ, contacts=grasp - 1)
+
+
+def test_the_model_is_data_same_object_other_damping_shares_the_program():
+    """On MJX the model's static fields (geometry and the contact budget included) fix the program; the nominal
+    damping is data (an argument, as on MJX-JAX). The program is the load-aware preset's (force-aware observation,
+    privileged critic): those train on MJX too."""
+    obj = load_gapartnet(OBJ)
+    base = tiny_program("pica_load", backend="mjx", impl="warp", num_envs=2, rollout_len=2)
+    tasks = [PullTask(build_scene(obj, SceneConfig(damping=damping)), base.task.traj, base.task.config)
+             for damping in (10.0, 40.0)]
+    assert tasks[0].backend.budget.contacts == tasks[1].backend.budget.contacts
+    programs = [make_train(t, base.method, base.config) for t in tasks]
+    before = epoch_jit._cache_size()
+    states = [epoch_jit(p, p.data(), init_jit(p, p.data(), jax.random.PRNGKey(0)))[0] for p in programs]
+    assert epoch_jit._cache_size() - before == 1
+    damping = [float(p.task.data.physics.model.dof_damping[p.task.scene.ids.target_dof]) for p in programs]
+    assert damping == [10.0, 40.0]
+    ts = states[0]
+    assert int(ts.epoch) == 1 and float(ts.privileged_stats.count) > 1
+    a = programs[0].make_policy(True)(policy_params(ts), ts.env_state.obs, jax.random.PRNGKey(0))
+    assert a.shape == (2, 51) and np.isfinite(np.asarray(a)).all()
+
+
+def test_seeds_as_one_program_equal_separate_runs():
+    """Two seeds vmapped over a run axis (each world's buffer share sized for both runs' worlds) give each seed's
+    separate epoch."""
+    p = tiny_program("pica", backend="mjx", impl="warp")
+    both = epoch_runs(p, p.data(2), init_runs(p, p.data(2), seed_keys([0, 1])))[1]["loss"]
+    alone = [float(epoch_jit(p, p.data(), init_jit(p, p.data(), seed_keys([s])[0]))[1]["loss"]) for s in (0, 1)]
+    np.testing.assert_allclose(np.asarray(both), alone, rtol=2e-3, atol=2e-3)

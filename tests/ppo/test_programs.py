@@ -11,24 +11,18 @@ from pathlib import Path
 
 import jax
 import numpy as np
-import pytest
 
-from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.procedural import default_object, synthesize
 from dragmesh2_jax.ppo.train import (
     epoch_jit,
     epoch_runs,
     init_jit,
     init_runs,
-    make_train,
-    policy_params,
     seed_keys,
     take_run,
 )
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
-from dragmesh2_jax.scene import SceneConfig, build_scene
-from dragmesh2_jax.task.env import PullTask
 from tests.conftest import tiny_program, tiny_spec
 
 OBJ = str(default_object())
@@ -126,24 +120,3 @@ def test_multi_seed_run_writes_a_folder_per_seed_and_resumes_exactly(tmp_path):
     for x, y in zip(jax.tree.leaves(full.params), jax.tree.leaves(resumed.params), strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
     assert [r["epoch"] for r in rows2[0]] == [1, 2]
-
-
-@pytest.mark.mjx
-def test_mjx_model_is_data_same_object_other_damping_shares_the_program():
-    """On MJX the model's static fields (geometry and the contact budget included) fix the program; the nominal
-    damping is data. The program is the load-aware preset's (force-aware observation, privileged critic): those
-    train on MJX too."""
-    obj = load_gapartnet(OBJ)
-    base = tiny_program("pica_load", backend="mjx", num_envs=2, rollout_len=2)
-    tasks = [PullTask(build_scene(obj, SceneConfig(damping=damping)), base.task.traj, base.task.config)
-             for damping in (10.0, 40.0)]
-    assert tasks[0].backend.budget.contacts == tasks[1].backend.budget.contacts
-    programs = [make_train(t, base.method, base.config) for t in tasks]
-    states, compiled = _first_epochs(programs)
-    assert compiled == 1
-    damping = [float(p.task.data.physics.model.dof_damping[p.task.scene.ids.target_dof]) for p in programs]
-    assert damping == [10.0, 40.0]
-    ts = states[0]
-    assert int(ts.epoch) == 1 and float(ts.privileged_stats.count) > 1
-    a = programs[0].make_policy(True)(policy_params(ts), ts.env_state.obs, jax.random.PRNGKey(0))
-    assert a.shape == (2, 51) and np.isfinite(np.asarray(a)).all()
