@@ -21,7 +21,13 @@ from dragmesh2_jax.bench import (
 )
 from dragmesh2_jax.demo import run_demo
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES, envelope_table, markdown_table
+from dragmesh2_jax.evaluation.evaluate import (
+    ENVELOPE_DAMPINGS,
+    ENVELOPE_PACES,
+    envelope_figure,
+    envelope_table,
+    markdown_table,
+)
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json
 from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
@@ -29,6 +35,7 @@ from dragmesh2_jax.policies.methods import METHODS
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.finetune import FINETUNES
+from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
 from dragmesh2_jax.reproduce import TABLES, ReproduceConfig, reproduce
 from dragmesh2_jax.runs.commands import (
     describe_object,
@@ -40,6 +47,7 @@ from dragmesh2_jax.runs.commands import (
     parse_floats,
     train_run,
     video_of_run,
+    view_run,
 )
 from dragmesh2_jax.runs.session import Selection
 from dragmesh2_jax.scene import SceneConfig
@@ -64,7 +72,8 @@ def _err(*lines) -> None:
 
 
 def cmd_inspect(args) -> int:
-    info = describe_object(args.folder, SceneConfig(scale=args.scale, collide=args.collide), args.render)
+    info = describe_object(args.folder, SceneConfig(scale=args.scale, collide=args.collide), args.render,
+                           args.renderer)
     if args.json:
         print(json.dumps(info, indent=2))
         return 0
@@ -105,7 +114,7 @@ def cmd_objects(args) -> int:
 
 
 def cmd_trajectory(args) -> int:
-    traj, used = make_trajectory(args.object, args.out, args.render)
+    traj, used = make_trajectory(args.object, args.out, args.render, args.renderer)
     q = traj.header["quality"]
     blocks = ", ".join(f"{p} {b - a}" for p, a, b in traj.phase_blocks())
     print(f"{args.out}: {len(traj.frames)} frames ({blocks}); target {traj.header['target']['joint_name']} "
@@ -217,6 +226,11 @@ def _add_scene_args(p: argparse.ArgumentParser) -> None:
                    help="object pieces that collide with the hand (default: target part near the handle)")
 
 
+def _add_renderer_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--renderer", default="auto", choices=RENDERERS,
+                   help="mujoco (OSMesa on a CPU, EGL on a GPU) | matplotlib (GL-free) | auto (MuJoCo's where it runs)")
+
+
 def _add_backend_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
     p.add_argument("--impl", default="jax", help="MJX implementation: jax | warp")
@@ -235,7 +249,7 @@ def cmd_train(args) -> int:
         args.out, args.object, args.trajectory, args.method, args.backend, args.impl, seeds, args.resume,
         task_changes=config_changes(args, "task"), scene_changes=config_changes(args, "scene"),
         network_changes=config_changes(args, "network"), selection=Selection(every=args.robust_every),
-        save_every=args.save_every, progress=not args.quiet,
+        save_every=args.save_every, progress=not args.quiet, wandb=args.wandb,
         epochs=args.epochs, num_envs=args.num_envs, seed=args.seed, lr_schedule=args.lr_schedule,
         **config_changes(args, "ppo"))
     for seed, rows in logs:
@@ -283,6 +297,8 @@ def cmd_envelope(args) -> int:
     paces = parse_floats(args.paces, "--paces", minimum=0.01)
     rows = object_envelope(args.object, args.trajectory, paces, _dampings(args.damping), args.backend, args.impl)
     print(json.dumps(rows, indent=1) if args.json else envelope_table(rows))
+    if args.plot:
+        _err(f"figure: {envelope_figure(rows, args.plot, f'envelope of {Path(args.object).name}')}")
     return 0
 
 
@@ -300,8 +316,8 @@ def cmd_reproduce(args) -> int:
 
 def cmd_demo(args) -> int:
     """The main job on the built-in default: trajectory -> PICA training -> evaluation x1/x2/x4 -> report."""
-    report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed,
-                      progress=not args.quiet)
+    report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed, args.renderer,
+                      args.video_every, progress=not args.quiet)
     print(report.read_text())
     _err(f"report: {report}")
     return 0
@@ -309,8 +325,16 @@ def cmd_demo(args) -> int:
 
 def cmd_video(args) -> int:
     dampings = _dampings(args.damping)
-    path, used, ck = video_of_run(args.checkpoint, dampings, args.out, args.every, _engine(args.backend), args.impl)
+    path, used, ck = video_of_run(args.checkpoint, dampings, args.out, args.every, _engine(args.backend), args.impl,
+                                  args.renderer)
     print(f"{path}: det policy of {ck} at damping {', '.join(f'x{d:g}' for d in dampings)} ({used} renderer)")
+    return 0
+
+
+def cmd_view(args) -> int:
+    shown = view_run(args.checkpoint, args.object, args.trajectory, args.damping, args.steps, _engine(args.backend),
+                     args.impl)
+    _err(f"view: {shown} control steps shown")
     return 0
 
 
@@ -378,7 +402,8 @@ def build_parser() -> argparse.ArgumentParser:
     pi = sub.add_parser("inspect", help="describe a GAPartNet object folder: target, joint, handle, collision")
     pi.add_argument("folder")
     pi.add_argument("--json", action="store_true", help="machine-readable output")
-    pi.add_argument("--render", metavar="FILE.png", help="write a picture of hand + object")
+    pi.add_argument("--render", metavar="FILE.png", help="write a picture of the expert grasp")
+    _add_renderer_arg(pi)
     _add_scene_args(pi)
     pi.set_defaults(func=cmd_inspect)
 
@@ -396,6 +421,7 @@ def build_parser() -> argparse.ArgumentParser:
     pt.add_argument("--object", required=True)
     pt.add_argument("--out", required=True)
     pt.add_argument("--render", metavar="FILE.gif", help="write a video of the executed trajectory")
+    _add_renderer_arg(pt)
     pt.set_defaults(func=cmd_trajectory)
 
     pds = sub.add_parser("dataset", help="trajectory datasets")
@@ -470,6 +496,8 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--robust-every", type=int, default=Selection.every,
                      help="epochs between robustness evaluations that select best_robust (0: off)")
     ptr.add_argument("--quiet", action="store_true")
+    ptr.add_argument("--wandb", metavar="PROJECT", help="also log the scalars to this Weights & Biases project (the "
+                                                         "wandb extra; WANDB_MODE=offline keeps them local)")
     _add_backend_args(ptr)
     # the engine and the run's own flags stand above; the effector is the parallel-jaw primitive's, not a policy's
     add_config_args(ptr, skip=("task.backend", "task.impl", "ppo.epochs", "ppo.num_envs", "ppo.seed",
@@ -513,6 +541,7 @@ def build_parser() -> argparse.ArgumentParser:
     pen.add_argument("--paces", default=_csv(ENVELOPE_PACES), help="replay speeds (0.5: twice as slow)")
     pen.add_argument("--damping", default=_csv(ENVELOPE_DAMPINGS))
     pen.add_argument("--json", action="store_true")
+    pen.add_argument("--plot", metavar="FILE.png", help="also draw the envelope as a figure")
     _add_backend_args(pen)
     pen.set_defaults(func=cmd_envelope)
 
@@ -544,15 +573,29 @@ def build_parser() -> argparse.ArgumentParser:
     pd.add_argument("--seed", type=int, default=0)
     pd.add_argument("--quiet", action="store_true")
     pd.add_argument("--backend", default="auto")
+    pd.add_argument("--video-every", type=int, default=VIDEO_EVERY, help="control steps between video frames")
+    _add_renderer_arg(pd)
     pd.set_defaults(func=cmd_demo)
 
     pv = sub.add_parser("video", help="a trained policy's rollouts at several dampings, side by side")
     pv.add_argument("--checkpoint", required=True, help="run folder (best_robust, else final) or checkpoint file")
     pv.add_argument("--damping", default=_csv(PAPER.dampings))
     pv.add_argument("--out", default="policy.mp4", help=".mp4 (where mediapy and ffmpeg exist, else GIF) or .gif")
-    pv.add_argument("--every", type=int, default=6, help="control steps between frames")
+    pv.add_argument("--every", type=int, default=VIDEO_EVERY, help="control steps between frames (played in real "
+                                                                    "time: 2 is 30 frames a second)")
+    _add_renderer_arg(pv)
     _add_backend_args(pv)
     pv.set_defaults(func=cmd_video)
+
+    pw = sub.add_parser("view", help="MuJoCo's interactive viewer: a trained policy, or the expert drag, in real time "
+                                     "(keys 1/2/4/8: damping; N: next episode)")
+    pw.add_argument("--checkpoint", help="run folder (best_robust, else final) or checkpoint")
+    pw.add_argument("--object", help="object folder (with --checkpoint: the policy on another object)")
+    pw.add_argument("--trajectory")
+    pw.add_argument("--damping", type=float, default=1.0)
+    pw.add_argument("--steps", type=int, help="close after this many control steps (default: when closed)")
+    _add_backend_args(pw)
+    pw.set_defaults(func=cmd_view)
     return p
 
 

@@ -16,18 +16,19 @@ from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.evaluation.evaluate import markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_bytes, atomic_write_text
-from dragmesh2_jax.render import render_png, render_policy_video, set_pose
+from dragmesh2_jax.progress import LogLines
+from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video, render_pose
 from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.runs.spec import method_spec
 
 CPU_EPOCHS, GPU_EPOCHS = 60, 150  # a small preset on a CPU, the paper's budget on an accelerator
-VIDEO_EVERY = 30  # control steps between video frames (0.5 s)
 
 
 def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | None = None, epochs: int | None = None,
-             backend: str = "auto", seed: int = 0, progress: bool = True) -> Path:
+             backend: str = "auto", seed: int = 0, renderer: str = "auto", video_every: int = VIDEO_EVERY,
+             progress: bool = True) -> Path:
     """Run the demo into ``out``; returns the report's path."""
     gpu = jax.default_backend() != "cpu"
     epochs = epochs or (GPU_EPOCHS if gpu else CPU_EPOCHS)
@@ -37,19 +38,23 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
           f"x1/x2/x4; {'GPU: full preset' if gpu else 'CPU: small preset, about 3-5 minutes on 2 cores'}",
           file=sys.stderr)
     t0 = time.time()
+    stages = LogLines("demo", 4, enabled=progress)
     run = RunDir(out)
     spec = method_spec("pica", folder, {"epochs": epochs, "seed": seed}, backend=backend)
     _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=False, save_every=max(epochs // 3, 1),
                                     progress=progress)
+    stages(1, f"1/4 trained ({epochs} epochs)")
     program, ts, _, _ = load_run(out)  # the checkpoint selected by robustness
     traj = program.task.traj
     result, _ = evaluate_checkpoint(str(out), PAPER)
     ck = Path(result["checkpoint"])
+    stages(2, f"2/4 evaluated {ck.name}")
     plot_success(result, out / "success_vs_damping.png")
-    grasp_picture(program.task, out / "grasp.png")
-    c = program.controller(ts)
-    video, _ = render_policy_video(EvalProtocol(starts=None).task(program.task), c.make_policy(True), c.params,
-                                   list(PAPER.dampings), out / "policy.gif", every=VIDEO_EVERY)
+    used = grasp_picture(program.task, out / "grasp.png", renderer)
+    stages(3, f"3/4 pictures ({used} renderer)")
+    video, _ = render_policy_video(EvalProtocol(starts=None).task(program.task), program.controller(ts),
+                                   list(PAPER.dampings), out / "policy.mp4", every=video_every, renderer=renderer)
+    stages(4, f"4/4 video {Path(video).name}")
     q = traj.header.get("quality", {})
     obj = program.task.scene.obj
     report = [
@@ -66,18 +71,18 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
         "Wilson intervals)", "", markdown_table(result), "",
         "![success vs damping](success_vs_damping.png)", "", "The expert grasp state every episode starts from:",
         "", "![expert grasp](grasp.png)", "",
-        "The deterministic policy from the exact expert grasp at each damping:", "",
-        f"![policy at x1, x2, x4]({Path(video).name})", "",
+        f"The deterministic policy from the exact expert grasp at each damping, in real time ({used} renderer):", "",
+        (f"![policy at x1, x2, x4]({Path(video).name})" if video.endswith(".gif") else
+         f"[the video: policy at x1, x2, x4]({Path(video).name})"), "",
     ]
     atomic_write_text(out / "report.md", "\n".join(report))
     return out / "report.md"
 
 
-def grasp_picture(task, path: Path) -> str:
-    scene, traj = task.scene, task.traj
+def grasp_picture(task, path: Path, renderer: str = "auto") -> str:
+    traj = task.traj
     frame = traj.frames[traj.drag_start]
-    d = set_pose(scene, scene.initial_data(), frame.hand_q, frame.joint_positions[traj.target_index])
-    return render_png(scene.model, d, path, target=scene.handle.centre)
+    return render_pose(task.scene, frame.hand_q, frame.joint_positions[traj.target_index], path, renderer=renderer)
 
 
 def plot_success(result: dict, path: Path) -> None:

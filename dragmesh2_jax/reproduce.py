@@ -30,7 +30,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import shutil
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -47,6 +46,8 @@ from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import MODES, PAPER_DAMPINGS, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.policies.methods import METHODS
+from dragmesh2_jax.progress import LogLines, to_log
+from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.commands import baseline_controllers, finetune_run, load_run
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
@@ -175,6 +176,7 @@ class ReproduceConfig:
     eval_seed: int = 42
     methods: tuple[str, ...] | None = None  # the rows of the main and ablation tables; None: the paper's
     dampings: tuple[float, ...] = PAPER_DAMPINGS  # the evaluation cells (x8 beyond the paper: an OOD column)
+    video_every: int = VIDEO_EVERY  # a video per method and object (first seed), a frame every this many steps; 0: none
 
     def __post_init__(self):
         if not self.objects:
@@ -188,6 +190,8 @@ class ReproduceConfig:
             raise DragMeshError(f"reproduce needs distinct seeds, got {self.seeds}")
         if self.epochs < 1 or self.episodes < 1 or (self.num_envs is not None and self.num_envs < 1):
             raise DragMeshError("epochs, episodes and num_envs must be >= 1")
+        if self.video_every < 0:
+            raise DragMeshError(f"video_every must be >= 0 (0: no videos), got {self.video_every}")
 
     @property
     def protocol(self) -> EvalProtocol:
@@ -344,11 +348,20 @@ def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
         raise DragMeshError(f"{folder.path}: trained to epoch {folder.trained_epochs()}, not {ev.run.epochs} (the "
                             "evaluation of a stage runs right after it)")
     program, ts, _, ck = load_run(ev.checkpoint_path(out), c.backend)
-    result = evaluate(c.protocol.task(program.task), program.controller(ts), c.protocol)
+    controller = program.controller(ts)
+    result = evaluate(c.protocol.task(program.task), controller, c.protocol)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=ev.run.epochs, label=ev.label, seed=ev.seed,
                   object=Path(ev.object).name)
     folder.write_evaluation(ck, c.protocol, result, markdown_table(result))
+    if c.video_every and ev.seed == c.seeds[0]:  # one video per method and object: the first seed's policy
+        render_policy_video(EvalProtocol(starts=None).task(program.task), controller, list(c.dampings),
+                            video_path(out, ev), every=c.video_every)
     return result
+
+
+def video_path(out: Path, ev: Eval) -> Path:
+    """Where the video of an evaluated run goes (a GIF, or an MP4 where mediapy and ffmpeg are installed)."""
+    return out / "videos" / f"{Path(ev.object).name}_{ev.label}.mp4"
 
 
 def _cost(step: Run | Eval, c: ReproduceConfig) -> float:
@@ -366,10 +379,10 @@ def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bo
     results = []
     current = {s: r for s in steps if isinstance(s, Eval) and (r := _current(s, c, out)) is not None}
     todo = [s for s in steps if s not in current and not _done(s, c, out)]
-    total, spent, t0 = sum(_cost(s, c) for s in todo), 0.0, time.time()
-    lines = progress and not sys.stderr.isatty()
+    total, spent = sum(_cost(s, c) for s in todo), 0.0
+    lines = LogLines("reproduce", total, enabled=progress)
     with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), TextColumn("left"),
-                  TimeRemainingColumn(), disable=not progress or lines) as bar:
+                  TimeRemainingColumn(), disable=not progress or to_log()) as bar:
         task = bar.add_task("reproduce", total=max(total, 1.0))
         for step in steps:
             if step in current:
@@ -386,10 +399,7 @@ def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bo
                 results.append(_evaluate(step, c, out))
             bar.advance(task, _cost(step, c))
             spent += _cost(step, c)
-            if lines:
-                elapsed = time.time() - t0
-                print(f"reproduce: {Path(step.object).name}: {what} done; elapsed {elapsed:.0f} s, left "
-                      f"~{elapsed / spent * (total - spent):.0f} s", file=sys.stderr, flush=True)
+            lines(spent, f"{Path(step.object).name}: {what} done")
             if on_step:
                 on_step(step)
     return results
@@ -510,6 +520,38 @@ def figure2(results: list[dict], labels: list[str], objects: list[str], path: Pa
     return path
 
 
+def training_curves(table: str, c: ReproduceConfig, out: Path) -> Path | None:
+    """Training success per epoch by method: the mean over the objects of each seed's curve, and over seeds with a
+    band of one SE (the runs' logs as they are; a table's partial runs count as far as they went)."""
+    curves: dict[str, dict[int, list[list[float]]]] = {}  # method -> seed -> one curve per object
+    for run in (s for s in plan(table, c) if isinstance(s, Run)):
+        rows = run.folder(out).log_rows() if run.folder(out).exists() else []
+        if rows:
+            curves.setdefault(run.name, {}).setdefault(run.seed, []).append([r["success"] for r in rows])
+    if not curves:
+        return None
+    fig = Figure(figsize=(6.5, 3.8))
+    ax = fig.subplots()
+    for name, by_seed in curves.items():
+        n = min(len(curve) for runs in by_seed.values() for curve in runs)
+        y = np.asarray([np.mean([curve[:n] for curve in runs], axis=0) for runs in by_seed.values()])
+        mean, se = y.mean(0), (y.std(0, ddof=1) / np.sqrt(len(y)) if len(y) > 1 else np.zeros(n))
+        epochs = np.arange(1, n + 1)
+        ax.plot(epochs, mean, label=name)
+        ax.fill_between(epochs, mean - se, mean + se, alpha=0.25)
+    ax.set_xlabel("epoch")
+    ax.set_ylabel("training success (episodes ending in success)")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_title(f"{table}: mean over {len(c.objects)} object(s), band: SE over {len(c.seeds)} seed(s)")
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    path = out / f"curves_{table}.png"
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110)
+    tmp.replace(path)
+    return path
+
+
 def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) -> Path:
     """``<table>.md`` and ``<table>.json`` (and Figure 2 for main/ablation) from the evaluations."""
     budget = (f"{len(c.seeds)} seed(s) {', '.join(map(str, c.seeds))}; base {c.epochs} epochs; {c.episodes} "
@@ -524,6 +566,13 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
         fig = figure2(results, labels, list(c.objects), out / f"figure2_{table}.png", c.dampings)
         lines += ["Cells: det / stoch success, mean±SE over seeds; (paper det/stoch) where the paper has the object.",
                   "", comparison_table(results, labels, list(c.objects), c.dampings), "", f"![Figure 2]({fig.name})"]
+        curves = training_curves(table, c, out)
+        if curves is not None:
+            lines += ["", f"![training curves]({curves.name})"]
+        videos = sorted((out / "videos").glob("*")) if (out / "videos").is_dir() else []
+        if videos:
+            lines += ["", "Videos (first seed, deterministic, exact start, dampings side by side): " +
+                      ", ".join(f"[{v.stem}](videos/{v.name})" for v in videos)]
     else:
         rows, columns = _diagnostic_layout(table, c)
         lines += [f"Object {Path(c.objects[0]).name} (the paper's diagnostic object is 45936); mean±SE over seeds.",

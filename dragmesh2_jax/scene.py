@@ -43,6 +43,10 @@ WRIST_SITE = "wrist_ft"
 TARGET_JOINT = "target_joint"
 TARGET_BODY = "object_target"
 HANDLE_SITE = "handle"
+#: Colours that tell the handle, the target part and the rest of the object apart from each other and from the hand
+#: in a picture (the hand is skin-coloured: assets/hand.py). No physics reads them.
+HANDLE_RGBA, PART_RGBA, BODY_RGBA = "0.95 0.55 0.15 1", "0.55 0.72 0.88 1", "0.78 0.78 0.76 1"
+OTHER_HANDLE_RGBA = "0.55 0.55 0.55 1"
 #: Physics steps from rest that settle a written start state (facts §4: the reference's 4 settle substeps).
 RESET_SETTLE_SUBSTEPS = 4
 
@@ -221,7 +225,8 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
         for k, piece in enumerate(pieces):
             collide = config.collide == "all" or (
                 in_target and _piece_near(piece, handle_box, config.collision_radius, s))
-            rgba = "0.35 0.55 0.8 1" if name in handle_links else "0.75 0.75 0.7 1" if in_target else "0.6 0.6 0.6 0.5"
+            rgba = ((HANDLE_RGBA if in_target else OTHER_HANDLE_RGBA) if name in handle_links
+                    else PART_RGBA if in_target else BODY_RGBA)
             _piece_geom(target_body if in_target else obj_body, asset, piece, f"{name}_{k}", s, collide,
                         config.friction, rgba)
             n_collide += collide

@@ -66,14 +66,19 @@ def require_shared(path: Path) -> Path:
     pytest.skip(msg)
 
 
-def require_warp() -> None:
-    """MJX's Warp implementation (the ``warp`` extra): a failure under CI (which installs it), a skip elsewhere."""
-    if importlib.util.find_spec("warp") is not None:
+def require_package(name: str, extra: str | None = None) -> None:
+    """An optional package (an extra): a failure under CI (which installs every extra), a skip elsewhere."""
+    if importlib.util.find_spec(name) is not None:
         return
-    msg = "warp-lang is not installed (pip install -e \".[warp]\")"
+    msg = f"{name} is not installed (pip install -e \".[{extra or name}]\")"
     if os.environ.get("CI", "").lower() == "true":
         pytest.fail(msg)
     pytest.skip(msg)
+
+
+def require_warp() -> None:
+    """MJX's Warp implementation (the ``warp`` extra)."""
+    require_package("warp")
 
 
 @pytest.fixture(scope="session")

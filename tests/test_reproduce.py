@@ -110,11 +110,15 @@ def test_every_table_runs_its_plan_and_an_interrupted_reproduction_resumes(tmp_p
 
 
 def test_one_real_table_on_a_tiny_preset(tmp_path):
-    """The main table's real steps: a controller evaluated, PICA trained and evaluated (x1/x2/x4/x8)."""
-    c = dataclasses.replace(TINY, methods=("tracking", "pica"), dampings=(1.0, 2.0, 4.0, 8.0))
+    """The main table's real steps: a controller evaluated, PICA trained and evaluated (x1/x2/x4/x8), its video and
+    training curve."""
+    c = dataclasses.replace(TINY, methods=("tracking", "pica"), dampings=(1.0, 2.0, 4.0, 8.0), video_every=60)
     [path] = reproduce(["main"], c, tmp_path, progress=False)
     table = path.read_text()
     assert "| pica | x8 |" in table and "| tracking | x8 | 1.00" in table
+    assert "![training curves](curves_main.png)" in table and (tmp_path / "curves_main.png").is_file()
+    video = next((tmp_path / "videos").glob(f"{Path(c.objects[0]).name}_pica.*"))  # GIF where no ffmpeg
+    assert f"videos/{video.name}" in table and video.stat().st_size > 0
     run = Run(c.objects[0], 0, c.epochs, method="pica").folder(tmp_path)
     assert run.trained_epochs() == 2 and run.spec().method == "pica"
     result = run.evaluation(run.checkpoint("best_robust"), c.protocol)

@@ -7,7 +7,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "dragmesh2_jax"
 #: The data flow, bottom to top: a module imports only from its own floor or below.
 FLOORS = (
-    ("errors", "io"),
+    ("errors", "io", "progress"),
     ("assets",),
     ("scene",),
     ("trajectory", "physics"),
@@ -16,14 +16,14 @@ FLOORS = (
     ("ppo",),
     ("baselines",),
     ("evaluation",),
-    ("render",),
+    ("render", "viewer"),
     ("runs",),
     ("reproduce", "demo", "bench"),
     ("cli",),
 )
 FLOOR = {room: i for i, rooms in enumerate(FLOORS) for room in rooms}
 #: Optional packages imported where they are used, so the package works without them.
-OPTIONAL = {"mediapy", "warp"}
+OPTIONAL = {"mediapy", "warp", "wandb"}
 
 
 def _modules() -> dict[str, ast.Module]:

@@ -10,12 +10,17 @@ the parallel-jaw primitive).
 from __future__ import annotations
 
 import dataclasses
+import io
+from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
 from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.evaluation.rollout import cells, rollout
+from dragmesh2_jax.io import atomic_write_bytes
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.task.env import PullTask
 
@@ -94,6 +99,37 @@ def envelope_table(rows: list[dict]) -> str:
             cells_.append(f"{how} ({r['steps']} steps, {r['wrist_load_peak_n']:.0f} N)")
         lines.append(f"| {pace:g}x | " + " | ".join(cells_) + " |")
     return "\n".join(lines)
+
+
+def envelope_figure(rows: list[dict], path: str | Path, title: str = "") -> Path:
+    """The envelope as a grid (paces down, dampings across): green where the expert opens the part, red where it
+    detaches, grey where it runs out of time; each cell with its steps and peak wrist load."""
+    dampings = sorted({r["damping"] for r in rows})
+    paces = list(dict.fromkeys(r["pace"] for r in rows))
+    fig = Figure(figsize=(1.3 + 1.25 * len(dampings), 0.9 + 0.55 * len(paces)))
+    ax = fig.subplots()
+    colours = {"opens": "#4caf50", "detaches": "#e53935", "times out": "#9e9e9e"}
+    for i, pace in enumerate(paces):
+        for j, d in enumerate(dampings):
+            r = next(r for r in rows if r["pace"] == pace and r["damping"] == d)
+            how = "opens" if r["opened"] else "detaches" if r["detached"] else "times out"
+            ax.add_patch(Rectangle((j, i), 0.96, 0.92, color=colours[how]))
+            ax.text(j + 0.48, i + 0.46, f"{r['steps']} st\n{r['wrist_load_peak_n']:.0f} N", ha="center", va="center",
+                    fontsize=7, color="white")
+    ax.set_xlim(0, len(dampings))
+    ax.set_ylim(len(paces), 0)
+    ax.set_xticks([j + 0.48 for j in range(len(dampings))], [f"x{d:g}" for d in dampings])
+    ax.set_yticks([i + 0.46 for i in range(len(paces))], [f"{p:g}x" for p in paces])
+    ax.set_xlabel("damping multiplier")
+    ax.set_ylabel("pace of the expert drag")
+    ax.set_title(title or "envelope: green opens, red detaches, grey out of time", fontsize=8)
+    ax.tick_params(length=0)
+    for spine in ax.spines.values():
+        spine.set_visible(False)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120)
+    return atomic_write_bytes(path, buf.getvalue())
 
 
 def markdown_table(result: dict) -> str:

@@ -156,11 +156,12 @@ def trace(result: dict) -> dict:
 
 
 def frames(result: dict, dampings: list[float]) -> list[dict]:
-    """Per world (one per damping): the effector and object q of every step of its first episode, how it ended
-    and its length (what a video shows)."""
+    """Per world (one per damping): the effector and object q and the wrist load (N) of every step of its first
+    episode, how it ended and its length (what a video shows)."""
     rows = []
     for i, d in enumerate(dampings):
         steps = int(result["live"][:, i].sum())
         rows.append({"damping": float(d), "hand_q": result["hand_q"][:steps, i], "obj_q": result["obj_q"][:steps, i],
-                     "success": bool(result["acc"]["success"][i] > 0), "steps": steps})
+                     "wrist_load": result["wrist_load"][:steps, i], "success": bool(result["acc"]["success"][i] > 0),
+                     "detach": bool(result["acc"]["detach"][i] > 0), "steps": steps})
     return rows

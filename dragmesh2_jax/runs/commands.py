@@ -17,8 +17,8 @@ from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint
 from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.ppo.train import TrainProgram, TrainState, init_jit, seed_keys
-from dragmesh2_jax.render import render_png, render_policy_video, render_trajectory_gif
-from dragmesh2_jax.runs.build import load_task, program_of
+from dragmesh2_jax.render import render_policy_video, render_pose, render_trajectory_gif
+from dragmesh2_jax.runs.build import load_task, program_of, task_of
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.runs.spec import finetune_spec, method_spec
@@ -27,6 +27,7 @@ from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import contact_budget, reset_starts
 from dragmesh2_jax.trajectory.generator import generate
 from dragmesh2_jax.trajectory.schema import write_trajectory
+from dragmesh2_jax.viewer import view
 
 
 def parse_floats(text: str, what: str, minimum: float | None = None) -> list[float]:
@@ -44,33 +45,35 @@ def parse_floats(text: str, what: str, minimum: float | None = None) -> list[flo
     return vals
 
 
-def describe_object(folder: str, scene_config: SceneConfig = SceneConfig(), render: str | None = None) -> dict:
-    """An object's summary (target, joint, handle), its scene's statistics and handle in the world, and, with
-    ``render``, a picture of hand + object written there."""
+def describe_object(folder: str, scene_config: SceneConfig = SceneConfig(), render: str | None = None,
+                    renderer: str = "auto") -> dict:
+    """An object's summary (target, joint, handle), its scene's statistics and handle in the world, the contact pairs
+    and MJX's buffers for the expert drag, and, with ``render``, a picture of the expert grasp (the hand at the
+    origin where no trajectory can be made) written there."""
     obj = load_gapartnet(folder)
     scene = build_scene(obj, scene_config)
     info = obj.summary()
     info["scene"] = scene.stats
-    info["contacts"] = contact_summary(scene)
     info["handle_world"] = {"centre": [round(float(x), 5) for x in scene.handle.centre],
                             "thickness_m": round(scene.handle.thickness, 5)}
+    info["contacts"] = {"pairs": contacts.pairs(scene)}
+    try:
+        traj = generate(obj, scene=scene)
+    except DragMeshError as e:
+        traj, info["contacts"]["budget"] = None, None
+        info["contacts"]["note"] = f"no expert drag to probe ({e})"
+    if traj is not None:
+        budget = contact_budget(scene, traj, TaskConfig(), reset_starts(scene, traj, None))
+        info["contacts"]["budget"] = budget.to_json()
     if render:
-        info["render"] = {"path": str(render), "renderer": render_png(scene.model, scene.initial_data(), render,
-                                                                     target=scene.handle.centre)}
+        frame = traj.frames[traj.drag_start] if traj is not None else None
+        pose = ((frame.hand_q, frame.joint_positions[traj.target_index]) if frame is not None
+                else (scene.initial_data().qpos[scene.ids.hand_qpos], scene.ids.target_range[0]))
+        info["render"] = {"path": str(render), "renderer": render_pose(scene, *pose, render, renderer=renderer)}
     return info
 
 
-def contact_summary(scene) -> dict:
-    """The geom pairs that can collide and MJX's buffers for them (the expert drag's probe and its budget)."""
-    out = {"pairs": contacts.pairs(scene)}
-    try:
-        traj = generate(scene.obj, scene=scene)
-    except DragMeshError as e:
-        return {**out, "budget": None, "note": f"no expert drag to probe ({e})"}
-    return {**out, "budget": contact_budget(scene, traj, TaskConfig(), reset_starts(scene, traj, None)).to_json()}
-
-
-def make_trajectory(object_dir: str, out: str, render: str | None = None):
+def make_trajectory(object_dir: str, out: str, render: str | None = None, renderer: str = "auto"):
     """Generate an object's reference trajectory into ``out`` (and, with ``render``, a GIF of it executed);
     returns (trajectory, renderer used or None)."""
     if render and not render.endswith(".gif"):
@@ -78,24 +81,25 @@ def make_trajectory(object_dir: str, out: str, render: str | None = None):
     obj = load_gapartnet(object_dir)
     traj = generate(obj)
     write_trajectory(traj, out)
-    return traj, (render_trajectory_gif(obj, traj, render) if render else None)
+    return traj, (render_trajectory_gif(obj, traj, render, renderer=renderer) if render else None)
 
 
 def train_run(out: str, object_dir: str | None, trajectory: str | None, method: str, backend: str = "auto",
               impl: str = "jax", seeds: list[int] | None = None, resume: bool = False, task_changes: dict | None = None,
               scene_changes: dict | None = None, network_changes: dict | None = None,
               selection: Selection = Selection(), save_every: int = 10, progress: bool = True,
-              **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
+              wandb: str | None = None, **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
     record (``resume``: ``ppo["epochs"]`` extends it); returns (program, [(seed, log rows)])."""
     runs = [RunDir(Path(out) / f"seed_{s}") for s in seeds] if seeds else [RunDir(out)]
     if resume:
         program, _, logs = start_or_resume(None, runs, resume=True, epochs=ppo.get("epochs"), backend=backend,
-                                           impl=impl, save_every=save_every, selection=selection, progress=progress)
+                                           impl=impl, save_every=save_every, selection=selection, progress=progress,
+                                           wandb=wandb)
         return program, [(r.spec().ppo.seed, rows) for r, rows in zip(runs, logs, strict=True)]
     spec = method_spec(method, object_dir, ppo, task_changes, scene_changes, backend, impl, network_changes)
     program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, save_every=save_every,
-                                       selection=selection, progress=progress)
+                                       selection=selection, progress=progress, wandb=wandb)
     return program, list(zip(seeds or [spec.ppo.seed], logs, strict=True))
 
 
@@ -172,12 +176,30 @@ def object_envelope(object_dir: str, trajectory: str | None, paces=ENVELOPE_PACE
     return envelope(EvalProtocol(starts=None).task(load_task(object_dir, trajectory, backend, impl)), paces, dampings)
 
 
+def view_run(checkpoint: str | None, object_dir: str | None, trajectory: str | None = None, damping: float = 1.0,
+             steps: int | None = None, backend: str | None = None, impl: str = "jax") -> int:
+    """``dragmesh2 view``: a run's deterministic policy (on its own object, or on ``object_dir``), or without a
+    checkpoint the expert drag on ``object_dir``, in MuJoCo's viewer from the evaluation's perturbed starts; returns
+    the control steps shown."""
+    if checkpoint:
+        program, ts, _, _ = load_run(checkpoint, backend, impl)
+        task = program.task
+        if object_dir:
+            task = task_of(object_dir, trajectory, task.config, task.scene.config)
+        controller = program.controller(ts)
+    elif object_dir:
+        task = load_task(object_dir, trajectory, backend or "mujoco", impl)
+        controller = tracking.tracking_controller(task)
+    else:
+        raise DragMeshError("give --checkpoint (a trained run), --object (the expert drag on it), or both")
+    return view(PAPER.task(task), controller, damping, steps)
+
+
 def video_of_run(checkpoint: str, dampings: list[float], out: str, every: int, backend: str | None = None,
-                 impl: str = "jax") -> tuple[Path, str, Path]:
+                 impl: str = "jax", renderer: str = "auto") -> tuple[Path, str, Path]:
     """A run's deterministic policy from the exact start at each damping, side by side; returns (video path,
     renderer used, checkpoint)."""
     program, ts, _, ck = load_run(checkpoint, backend, impl)
     task = EvalProtocol(starts=None).task(program.task)
-    c = program.controller(ts)
-    path, used = render_policy_video(task, c.make_policy(True), c.params, dampings, out, every=every)
+    path, used = render_policy_video(task, program.controller(ts), dampings, out, every=every, renderer=renderer)
     return path, used, ck

@@ -10,7 +10,7 @@ divide the seeds); each seed has its own run folder, so evaluation and fine-tune
 from __future__ import annotations
 
 import contextlib
-import sys
+import hashlib
 import time
 from dataclasses import dataclass
 
@@ -34,6 +34,7 @@ from dragmesh2_jax.ppo.train import (
     take_run,
     train,
 )
+from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.spec import RunSpec
@@ -80,39 +81,34 @@ def _resume_epoch(runs: list[RunDir]) -> int | None:
 
 
 class _Progress:
-    """A progress bar on a terminal; elsewhere (a log file) one plain line per tenth of the epochs."""
+    """A progress bar on a terminal; in a log one plain line per tenth of the epochs (``progress.LogLines``)."""
 
     def __init__(self, name: str, total: int, done: int, enabled: bool):
-        self.total, self.t0, self.done0 = total, time.time(), done
-        self.tty = enabled and sys.stderr.isatty()
-        self.lines = enabled and not self.tty
-        self.every = max(1, total // 10)
+        self.total = total
         self.bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                            TimeElapsedColumn(), TextColumn("{task.fields[stats]}"), disable=not self.tty)
+                            TimeElapsedColumn(), TextColumn("{task.fields[stats]}"), disable=not enabled or to_log())
         self.task = self.bar.add_task(name, total=total, completed=done, stats="")
-        self.name = name
+        self.lines = LogLines(name, total, done, every=max(1, total // 10), enabled=enabled)
 
     def update(self, epoch: int, stats: str) -> None:
         self.bar.update(self.task, completed=epoch, stats=stats)
-        if self.lines and (epoch % self.every == 0 or epoch == self.total):
-            spent = time.time() - self.t0
-            left = spent / max(epoch - self.done0, 1) * (self.total - epoch)
-            print(f"{self.name}: epoch {epoch}/{self.total}  {stats}  elapsed {spent:.0f} s  left ~{left:.0f} s",
-                  file=sys.stderr, flush=True)
+        self.lines(epoch, f"epoch {epoch}/{self.total}  {stats}")
 
 
 def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] | None = None,
                     trajectory: str | Trajectory | None = None, resume: bool | None = None,
                     start: TrainState | None = None, epochs: int | None = None, backend: str | None = None,
                     impl: str = "jax", save_every: int = 10, selection: Selection = Selection(),
-                    progress: bool = True, log_fn=None) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
+                    progress: bool = True, log_fn=None, wandb: str | None = None
+                    ) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
     """Train the runs in ``runs`` (one per seed, as one program) to ``epochs`` (default: the spec's).
 
     ``resume``: True continues the runs exactly from their newest common checkpoint (their records define them:
     ``spec`` may be None); False starts new runs of ``spec`` (a folder that holds a run is an error); None resumes
     when every folder has a checkpoint and starts otherwise (a run stopped before its first checkpoint starts
     again). ``start``: a fine-tune's first state (one run). ``backend``: resume on this engine instead of the
-    recorded task's. Returns the program, the final state (leading run axis) and each run's log rows."""
+    recorded task's. ``wandb``: a W&B project that gets the same scalars as TensorBoard. Returns the program, the
+    final state (leading run axis) and each run's log rows."""
     seeds = list(seeds) if seeds is not None else [spec.ppo.seed] if spec else None
     if not runs or (seeds is not None and len(seeds) != len(runs)):
         raise DragMeshError("one run folder per seed, at least one")
@@ -148,13 +144,13 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
         ts = init_runs(program, program.data(len(seeds)), seed_keys(seeds)) if start is None else stack_runs([start])
         rows, robust_rows = [[] for _ in runs], [[] for _ in runs]
     target = epochs or spec.ppo.epochs
-    ts = _loop(program, runs, ts, rows, robust_rows, target, resume, save_every, selection, progress, log_fn)
+    ts = _loop(program, runs, ts, rows, robust_rows, target, resume, save_every, selection, progress, log_fn, wandb)
     return program, ts, rows
 
 
 def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[list[dict]],
           robust_rows: list[list[dict]], epochs: int, resumed: bool, save_every: int, selection: Selection,
-          progress: bool, log_fn) -> TrainState:
+          progress: bool, log_fn, wandb: str | None) -> TrainState:
     c = program.config
     check = selection_check(program, selection) if selection.every > 0 else None
     first = int(ts.epoch[0])
@@ -164,9 +160,7 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
     bar = _Progress(f"train {name}", epochs, first, progress)
     t_start = time.time() - (rows[0][-1]["seconds"] if rows[0] else 0.0)  # a resumed run's clock goes on
     with bar.bar, contextlib.ExitStack() as stack:
-        # a resumed run's event files drop the points past the checkpoint it continues from
-        boards = [stack.enter_context(SummaryWriter(str(r.tensorboard), purge_step=first + 1 if resumed else None))
-                  for r in runs]
+        boards = [stack.enter_context(_Scalars(r, first if resumed else None, wandb)) for r in runs]
 
         def on_epoch(ts: TrainState, m: dict) -> None:
             e = int(ts.epoch[0])
@@ -176,7 +170,7 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
                        "env_steps": e * c.num_envs * c.rollout_len}
                 rows[i].append(row)
                 run.write_log(rows[i])
-                _board(boards[i], "train", row)
+                boards[i].write("train", row)
                 improved = row["reward"] > best[i]
                 robust_due = check is not None and (e % selection.every == 0 or e == epochs)
                 kept = e % save_every == 0 or e == epochs  # the last epoch too: a finished run can be extended
@@ -195,7 +189,7 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
                         save_checkpoint(one, run.checkpoint("best_robust"))
                     robust_rows[i].append(r)
                     run.write_robust(robust_rows[i])
-                    _board(boards[i], "robust", r)
+                    boards[i].write("robust", r)
                 if log_fn:
                     log_fn(row)
             mean = {k: float(np.mean(m[k])) for k in ("reward", "success", "progress", "clip099")}
@@ -208,7 +202,36 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
     return ts
 
 
-def _board(board, group: str, row: dict) -> None:
-    for k, v in row.items():
-        if k != "epoch" and isinstance(v, int | float):
-            board.add_scalar(f"{group}/{k}", float(v), row["epoch"])
+class _Scalars:
+    """A run's scalars, ``group/metric`` by epoch: TensorBoard's event files in the run folder, and the same on
+    Weights & Biases when a project is given (the ``wandb`` extra; ``WANDB_MODE=offline`` keeps them local). A
+    resumed run's event files drop the points past the checkpoint it continues from; its W&B run is the same run,
+    continued."""
+
+    def __init__(self, run: RunDir, resumed_from: int | None, wandb_project: str | None):
+        purge = None if resumed_from is None else resumed_from + 1
+        self.board = SummaryWriter(str(run.tensorboard), purge_step=purge)
+        self.wandb = None
+        if wandb_project:
+            try:
+                import wandb  # optional: the wandb extra
+            except ImportError:
+                raise DragMeshError("--wandb needs the wandb package (pip install -e \".[wandb]\")") from None
+            run_id = hashlib.sha1(str(run.path.resolve()).encode()).hexdigest()[:16]
+            self.wandb = wandb.init(project=wandb_project, name=run.path.name, id=run_id, resume="allow",
+                                    dir=str(run.path), config=run.record(), reinit="create_new")
+
+    def write(self, group: str, row: dict) -> None:
+        scalars = {f"{group}/{k}": float(v) for k, v in row.items() if k != "epoch" and isinstance(v, int | float)}
+        for k, v in scalars.items():
+            self.board.add_scalar(k, v, row["epoch"])
+        if self.wandb is not None:
+            self.wandb.log(scalars, step=row["epoch"])
+
+    def __enter__(self) -> _Scalars:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.board.close()
+        if self.wandb is not None:
+            self.wandb.finish()

@@ -24,6 +24,7 @@ from dragmesh2_jax.assets.gapartnet import URDF_CANDIDATES, load_gapartnet
 from dragmesh2_jax.assets.procedural import PAPER_TABLE1, synthesize_table1
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.trajectory.generator import GeneratorParams, generate
 from dragmesh2_jax.trajectory.schema import write_trajectory
 
@@ -115,15 +116,17 @@ def build_dataset(objects: list[str | Path], out: str | Path, params: GeneratorP
         else:
             todo.append((folder, sid, rpath))
     if todo:
+        lines = LogLines("dataset build", len(todo), every=max(1, len(todo) // 20), enabled=progress)
         with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                      disable=not progress, transient=False) as bar:
+                      disable=not progress or to_log(), transient=False) as bar:
             task = bar.add_task("trajectories", total=len(todo))
-            for folder, sid, rpath in todo:
+            for k, (folder, sid, rpath) in enumerate(todo, 1):
                 bar.update(task, description=f"trajectories [{sid}]")
                 rec = _build_one(folder, sid, out, params)
                 atomic_write_json(rpath, rec)
                 records.append(rec)
                 bar.advance(task)
+                lines(k, f"{k}/{len(todo)} trajectories ({sid}: {'passed' if rec['passed'] else 'failed'})")
     order = {sid: i for i, sid in enumerate(ids)}
     records.sort(key=lambda r: order.get(r["sample_id"], len(order)))
     manifest, summary = write_manifest(records, out), write_summary(records, out)

@@ -16,7 +16,7 @@ from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.runs.spec import finetune_spec
 from dragmesh2_jax.task.config import ReconfigConfig
-from tests.conftest import tiny_spec
+from tests.conftest import require_package, tiny_spec
 
 #: The module's trained run is built once: keep the file on one xdist worker.
 pytestmark = pytest.mark.xdist_group(__name__)
@@ -92,3 +92,17 @@ def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
     assert spec.finetune == "both" and spec.task.reward.aram.stall_steps == 5 and spec.parent == str(parent.resolve())
     program, _, _, _ = load_run(ft.path)  # the record rebuilds the fine-tune's task
     assert program.task.config.reward.reconfig == ReconfigConfig()
+
+
+def test_the_same_scalars_go_to_weights_and_biases_offline(tmp_path, monkeypatch):
+    """``--wandb PROJECT``: the run's TensorBoard scalars (training and robustness) logged to W&B too, here offline."""
+    require_package("wandb")
+    monkeypatch.setenv("WANDB_MODE", "offline")
+    monkeypatch.setenv("WANDB_SILENT", "true")
+    run = RunDir(tmp_path / "run")
+    start_or_resume(tiny_spec(epochs=2), [run], resume=False, selection=SELECT, progress=False, wandb="dragmesh2-test")
+    (log,) = (run.path / "wandb").glob("offline-run-*/run-*.wandb")
+    data = log.read_bytes()
+    assert all(key.encode() in data for key in ("train/success", "train/loss", "robust/mean_success"))
+    assert b"dragmesh2-test" in data and b"pica" in data  # the project, and the run record as its config
+

@@ -54,8 +54,12 @@ def test_the_paper_category_mix():
 
 def test_cli_dataset_of_procedural_objects_resumes(tmp_path, capsys):
     out = tmp_path / "d"
-    assert dragmesh2(["dataset", "build", "--procedural", "3", "--out", str(out), "--quiet"]) == 0
-    assert "3 of 3 passed" in capsys.readouterr().out
+    assert dragmesh2(["dataset", "build", "--procedural", "3", "--out", str(out)]) == 0
+    printed = capsys.readouterr()
+    assert "3 of 3 passed" in printed.out
+    # stderr is not a terminal here: one plain progress line per trajectory, with elapsed and estimated time left
+    lines = [ln for ln in printed.err.splitlines() if ln.startswith("dataset build: ")]
+    assert [ln.split()[2] for ln in lines] == ["1/3", "2/3", "3/3"] and all("left ~" in ln for ln in lines)
     summary = (out / "summary.md").read_text()
     assert "| StorageFurniture | 3 | 3 | 0 | 1.00 |" in summary and "| 256 |" in summary
     records = sorted((out / "records").iterdir())
