@@ -317,7 +317,7 @@ def cmd_reproduce(args) -> int:
 def cmd_demo(args) -> int:
     """The main job on the built-in default: trajectory -> PICA training -> evaluation x1/x2/x4 -> report."""
     report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed, args.renderer,
-                      args.video_every, progress=not args.quiet)
+                      args.video_every, args.method, progress=not args.quiet)
     print(report.read_text())
     _err(f"report: {report}")
     return 0
@@ -481,7 +481,7 @@ def build_parser() -> argparse.ArgumentParser:
     pbl.set_defaults(func=cmd_bench_learning)
 
     ptr = sub.add_parser("train", help="train a policy with PPO")
-    ptr.add_argument("--method", default="pica", help=" | ".join(METHODS))
+    ptr.add_argument("--method", default="pica", help="recommended | " + " | ".join(METHODS))
     ptr.add_argument("--object", help="object folder")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
     ptr.add_argument("--out", required=True, help="run folder")
@@ -574,6 +574,7 @@ def build_parser() -> argparse.ArgumentParser:
     pd.add_argument("--quiet", action="store_true")
     pd.add_argument("--backend", default="auto")
     pd.add_argument("--video-every", type=int, default=VIDEO_EVERY, help="control steps between video frames")
+    pd.add_argument("--method", default="pica", help="the method the demo trains (recommended: the project's recipe)")
     _add_renderer_arg(pd)
     pd.set_defaults(func=cmd_demo)
 

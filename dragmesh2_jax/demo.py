@@ -28,19 +28,19 @@ CPU_EPOCHS, GPU_EPOCHS = 60, 150  # a small preset on a CPU, the paper's budget 
 
 def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | None = None, epochs: int | None = None,
              backend: str = "auto", seed: int = 0, renderer: str = "auto", video_every: int = VIDEO_EVERY,
-             progress: bool = True) -> Path:
+             method: str = "pica", progress: bool = True) -> Path:
     """Run the demo into ``out``; returns the report's path."""
     gpu = jax.default_backend() != "cpu"
     epochs = epochs or (GPU_EPOCHS if gpu else CPU_EPOCHS)
     out = Path(out)
     folder = str(object_dir or default_object())
-    print(f"dragmesh2 demo: trajectory -> PICA ({epochs} epochs x 64 envs x 32 steps) -> evaluation at damping "
+    print(f"dragmesh2 demo: trajectory -> {method} ({epochs} epochs x 64 envs x 32 steps) -> evaluation at damping "
           f"x1/x2/x4; {'GPU: full preset' if gpu else 'CPU: small preset, about 3-5 minutes on 2 cores'}",
           file=sys.stderr)
     t0 = time.time()
     stages = LogLines("demo", 4, enabled=progress)
     run = RunDir(out)
-    spec = method_spec("pica", folder, {"epochs": epochs, "seed": seed}, backend=backend)
+    spec = method_spec(method, folder, {"epochs": epochs, "seed": seed}, backend=backend)
     _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=False, save_every=max(epochs // 3, 1),
                                     progress=progress)
     stages(1, f"1/4 trained ({epochs} epochs)")
@@ -58,7 +58,7 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
     q = traj.header.get("quality", {})
     obj = program.task.scene.obj
     report = [
-        f"# DragMesh-2 demo: PICA on {obj.object_id} ({obj.category})", "",
+        f"# DragMesh-2 demo: {program.method.name} on {obj.object_id} ({obj.category})", "",
         f"- object: `{folder}`; target `{obj.target.joint.name}` "
         f"({'revolute' if program.task.scene.ids.target_is_revolute else 'prismatic'})",
         f"- reference trajectory: {len(traj.frames)} frames, quality gate {'passed' if q.get('passed') else 'n/a'}; "

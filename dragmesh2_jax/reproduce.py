@@ -45,7 +45,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import MODES, PAPER_DAMPINGS, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
-from dragmesh2_jax.policies.methods import METHODS
+from dragmesh2_jax.policies.methods import METHODS, RECOMMENDED
 from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
 from dragmesh2_jax.runs.build import load_task
@@ -181,6 +181,8 @@ class ReproduceConfig:
     def __post_init__(self):
         if not self.objects:
             raise DragMeshError("reproduce needs at least one object")
+        if self.methods is not None:  # "recommended" stands for the recipe (a row is labelled with its name)
+            object.__setattr__(self, "methods", tuple(RECOMMENDED if m == "recommended" else m for m in self.methods))
         known = [*baseline_controllers(), *METHODS]
         unknown = [m for m in self.methods or () if m not in known]
         if self.methods is not None and (not self.methods or unknown):

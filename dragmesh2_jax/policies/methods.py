@@ -8,8 +8,9 @@ Beyond the paper (its §5 asks for a richer contact interface), each a preset ab
 ``pica_force`` (contact-load sensors in s_t and in the history tokens), ``pica_priv`` (asymmetric critic that
 sees damping and contact load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), and
 ``pica_load``, which combines them and trains from perturbed starts, and ``pica_grip``: contact-load observation,
-privileged critic and a load-budget reward, with the paper's damping range. The task itself (action
-interface, success threshold, damping multipliers, episode length) is the paper's for every method.
+privileged critic and a load-budget reward, with the paper's damping range. ``hold`` (``--method recommended``) is
+the project's recipe for holding a part under load, ``hold_blind`` the same without force or touch sensing. The task
+itself (action interface, success threshold, damping multipliers, episode length) is the paper's for every method.
 """
 
 from __future__ import annotations
@@ -56,13 +57,28 @@ METHODS = {m.name: m for m in (
     Method("pica_grip", "gla", True, "grip-aware PICA: contact-load observation, privileged critic and a load "
            "budget reward (the arm's pull beyond what the grasp holds is penalised)", critic="privileged",
            force_obs=True, w_load=5.0),
+    # the project's recipe for holding a part under load (issue 20; RESULTS.md): trained where the load is
+    Method("hold", "gla", True, "PICA-Hold: contact-load observation, privileged critic, damping randomised over "
+           "[1, 8] (the evaluation's x8 inside the training range), perturbed starts", critic="privileged",
+           force_obs=True, damping_range=(1.0, 8.0), reset_noise=True),
+    Method("hold_blind", "gla", True, "PICA-Hold without force or touch sensing (the paper's observation): "
+           "privileged critic, damping [1, 8], perturbed starts", critic="privileged", damping_range=(1.0, 8.0),
+           reset_noise=True),
 )}
+#: ``--method recommended``: the project's best recipe (RESULTS.md says why), wherever a method is taken.
+RECOMMENDED = "hold"
+
+
+def resolve(name: str) -> str:
+    """A method's name, ``recommended`` resolved (a run records the recipe it trained, not the alias)."""
+    name = RECOMMENDED if name == "recommended" else name
+    if name not in METHODS:
+        raise DragMeshError(f"unknown method {name!r} (choose from recommended, {', '.join(METHODS)})")
+    return name
 
 
 def get_method(name: str) -> Method:
-    if name not in METHODS:
-        raise DragMeshError(f"unknown method {name!r} (choose from {', '.join(METHODS)})")
-    return METHODS[name]
+    return METHODS[resolve(name)]
 
 
 def task_overrides(method: Method) -> dict:

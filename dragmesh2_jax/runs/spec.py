@@ -96,6 +96,7 @@ def method_spec(method: str, object_dir: str, ppo: dict | None = None, task: dic
     if not object_dir:
         raise DragMeshError("no object folder given (--object)")
     m = get_method(method)
+    method = m.name  # "recommended" recorded as the recipe it stands for
     task_config = TaskConfig(backend=backend, impl=impl, **{**task_overrides(m), **(task or {})})
     return RunSpec(method=method, object=str(object_dir),
                    ppo=PPOConfig(**{k: v for k, v in (ppo or {}).items() if v is not None}),

@@ -16,6 +16,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import track
 from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.evaluation.rollout import rollout
+from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.ppo.train import epoch_jit, epoch_runs, init_jit, init_runs, make_train, policy_params, seed_keys
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.rundir import RunDir
@@ -62,14 +63,14 @@ def test_contact_sensors_agree_with_the_c_engine():
 
 
 def test_a_training_run_records_its_buffers(tmp_path):
-    """Two epochs of the load-aware preset with a robustness check; the run record keeps the contact budget."""
+    """Two epochs of the recommended recipe with a robustness check; the run record keeps the contact budget."""
     run = RunDir(tmp_path / "run")
-    spec = tiny_spec("pica_load", backend="mjx", impl="warp", epochs=2)
+    spec = tiny_spec("recommended", backend="mjx", impl="warp", epochs=2)
     program, ts, (rows,) = start_or_resume(spec, [run], resume=False, progress=False,
                                            selection=Selection(every=2, protocol=dataclasses.replace(
                                                SELECTION, dampings=(1.0,), episodes=2)))
     assert [r["epoch"] for r in rows] == [1, 2] and all(np.isfinite(r["loss"]) and r["overflow"] == 0 for r in rows)
-    assert run.record()["backend"] == "mjx" and run.spec().task.impl == "warp"
+    assert run.record()["backend"] == "mjx" and run.spec().task.impl == "warp" and run.spec().method == RECOMMENDED
     assert run.record()["buffers"] == program.task.backend.budget.to_json()
     assert run.robust_rows()[0]["epoch"] == 2
 

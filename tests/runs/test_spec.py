@@ -5,12 +5,16 @@ is one error line."""
 import json
 from pathlib import Path
 
+import jax
+import numpy as np
 import pytest
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import PAPER
+from dragmesh2_jax.policies.methods import RECOMMENDED, get_method
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict
@@ -79,3 +83,16 @@ def test_a_malformed_record_is_one_error_line(record, fragment):
         RunSpec.from_record(record)
     assert "\n" not in str(e.value)
     assert RunSpec.from_record(GOOD) == RunSpec("pica", str(Path("obj").resolve()))
+
+
+def test_recommended_is_the_projects_recipe_and_trains_on_the_c_engine():
+    """``--method recommended`` resolves to the recipe, recorded by its own name; one tiny epoch on the C engine
+    (tests/physics/test_mjx_backend.py trains it on MJX)."""
+    spec = tiny_spec("recommended")
+    assert spec.method == RECOMMENDED and spec.preset.name == get_method("recommended").name == "hold"
+    assert spec.task.damping_range == (1.0, 8.0) and spec.task.force_obs and spec.task.reset_noise is not None
+    program = program_of(spec)
+    ts, m = epoch_jit(program, program.data(), init_jit(program, program.data(), jax.random.PRNGKey(0)))
+    assert int(ts.epoch) == 1 and np.isfinite(float(m["loss"]))
+    with pytest.raises(DragMeshError, match="choose from recommended"):
+        get_method("recomended")
