@@ -61,6 +61,9 @@ METHODS = {m.name: m for m in (
     Method("hold", "gla", True, "PICA-Hold: contact-load observation, privileged critic, damping randomised over "
            "[1, 8] (the evaluation's x8 inside the training range), perturbed starts", critic="privileged",
            force_obs=True, damping_range=(1.0, 8.0), reset_noise=True),
+    Method("hold_grip", "gla", True, "PICA-Hold with the load-budget reward of pica_grip (the arm's pull beyond what "
+           "the grasp holds is penalised)", critic="privileged", force_obs=True, damping_range=(1.0, 8.0),
+           reset_noise=True, w_load=5.0),
     Method("hold_blind", "gla", True, "PICA-Hold without force or touch sensing (the paper's observation): "
            "privileged critic, damping [1, 8], perturbed starts", critic="privileged", damping_range=(1.0, 8.0),
            reset_noise=True),
