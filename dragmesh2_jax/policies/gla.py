@@ -17,8 +17,67 @@ from __future__ import annotations
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+from flax import struct
 
 from dragmesh2_jax.policies.init import TORCH_LINEAR_INIT, Dense
+
+
+@struct.dataclass
+class TokenWindows:
+    """History windows that share their tokens. A rollout's consecutive observations of one world hold the same tokens
+    shifted by one, so a batch of T x N windows of L tokens holds only N (L + T - 1) distinct ones: each world's token
+    stream, a window a slice of it, where the tokens older than the window's episode are the zero token a reset
+    writes. A layer that maps every token linearly (GLA's key, value and gate projections) maps each distinct token
+    once: the same numbers as on the windows themselves (``materialize``), at a fraction of the work.
+
+    stream (E, L + T - 1, D): each world's tokens (normalised); world, start (B,): a window's world and where it starts
+    in that stream; valid (B, L): its tokens of its own episode; zero (D,): the zero token, normalised."""
+
+    stream: jnp.ndarray
+    world: jnp.ndarray
+    start: jnp.ndarray
+    valid: jnp.ndarray
+    zero: jnp.ndarray
+
+    @classmethod
+    def of_rollout(cls, history: jnp.ndarray, done: jnp.ndarray, normalize) -> TokenWindows:
+        """The windows of a rollout's observations, flattened time-major (sample k = t N + n, as the batch):
+        ``history`` (T, N, L, D) raw tokens, ``done`` (T, N) the episode ended at step t (so observation t + 1
+        began a new one), ``normalize`` the token normaliser."""
+        T, N, L, _ = history.shape
+        stream = jnp.concatenate([history[0], jnp.moveaxis(history[1:, :, -1], 0, 1)], axis=1)  # (N, L + T - 1, D)
+        t = jnp.arange(T)[:, None]
+        began = jnp.concatenate([jnp.zeros((1, N), bool), done[:-1] > 0], axis=0)  # observation t is a reset's
+        # the step the window's episode began (its first observation), or none within the rollout: -L
+        first = jax.lax.cummax(jnp.where(began, t, -L), axis=0)
+        valid = (t[..., None] + jnp.arange(L) >= L - 1 + first[..., None]).reshape(T * N, L)
+        world = jnp.tile(jnp.arange(N), T)
+        start = jnp.repeat(jnp.arange(T), N)
+        return cls(normalize(stream), world, start, valid, normalize(jnp.zeros(history.shape[-1], history.dtype)))
+
+    @property
+    def length(self) -> int:
+        return self.valid.shape[-1]
+
+    def take(self, index: jnp.ndarray) -> TokenWindows:
+        """The windows at ``index`` (a minibatch): the streams stay whole."""
+        return self.replace(world=self.world[index], start=self.start[index], valid=self.valid[index])
+
+    def last(self) -> jnp.ndarray:
+        """Each window's newest token (B, D)."""
+        return self.stream[self.world, self.start + self.length - 1]
+
+    def _windows(self, stream: jnp.ndarray, zero: jnp.ndarray) -> jnp.ndarray:
+        windows = stream[self.world[:, None], self.start[:, None] + jnp.arange(self.length)]
+        return jnp.where(self.valid[..., None], windows, zero)
+
+    def project(self, W: jnp.ndarray, b: jnp.ndarray) -> jnp.ndarray:
+        """``token @ W + b`` for every token of every window (B, L, n), each distinct token mapped once."""
+        return self._windows(self.stream @ W + b, self.zero @ W + b)
+
+    def materialize(self) -> jnp.ndarray:
+        """The windows as arrays (B, L, D): what the batch would hold without sharing."""
+        return self._windows(self.stream, self.zero)
 
 
 def gla_recurrent(q, k, v, g, state0=None):
@@ -76,7 +135,8 @@ class GatedLinearAttention(nn.Module):
 
         With ``proj = (kernel, bias)`` of a linear input projection, ``x`` is the raw tokens (..., T, d_in) and the
         projection is folded into the key, value and gate weights (x W_p W_k = x (W_p W_k)): per token a product
-        with d_in x (dk + dv + rank) weights instead of d_in x hidden and then hidden x (dk + dv + rank)."""
+        with d_in x (dk + dv + rank) weights instead of d_in x hidden and then hidden x (dk + dv + rank). ``x`` may be
+        :class:`TokenWindows` (with ``proj``): each distinct token is then projected once."""
         H = self.heads
         dk, dv = int(self.hidden * self.expand_k), int(self.hidden * self.expand_v)
         hk, hv = dk // H, dv // H
@@ -84,6 +144,10 @@ class GatedLinearAttention(nn.Module):
         if proj is None:
             tokens = lambda W: x @ W  # noqa: E731
             last = x[..., -1, :]
+        elif isinstance(x, TokenWindows):
+            W_in, b_in = proj
+            tokens = lambda W: x.project(W_in @ W, b_in @ W)  # noqa: E731
+            last = x.last() @ W_in + b_in
         else:
             W_in, b_in = proj
             tokens = lambda W: x @ (W_in @ W) + b_in @ W  # noqa: E731

@@ -25,7 +25,7 @@ import jax.numpy as jnp
 
 from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.policies.controller import Policy
-from dragmesh2_jax.policies.gla import GatedLinearAttention
+from dragmesh2_jax.policies.gla import GatedLinearAttention, TokenWindows
 from dragmesh2_jax.policies.init import TORCH_LINEAR_INIT, Dense
 from dragmesh2_jax.task.protocol import Obs
 
@@ -55,7 +55,7 @@ class MLP(nn.Module):
 
 
 class TemporalEncoder(nn.Module):
-    """H (..., L, 102) -> z_hist (..., dim)."""
+    """H (..., L, 102) -> z_hist (..., dim); H may be ``TokenWindows`` (a rollout's windows sharing their tokens)."""
 
     kind: str = "gla"
     dim: int = 128
@@ -64,14 +64,18 @@ class TemporalEncoder(nn.Module):
     @nn.compact
     def __call__(self, history):
         if self.kind == "flat":
+            if isinstance(history, TokenWindows):
+                history = history.materialize()
             x = history.reshape(*history.shape[:-2], -1)
             return nn.LayerNorm(name="hist_norm")(MLP((256, self.dim))(x))
         token_proj = Dense(self.dim, name="token_proj")
         if self.kind == "gla":  # the last token's output only (closed form), token_proj folded into the layer
-            token_proj(history[..., -1, :])  # creates its parameters
+            token_proj(history.last() if isinstance(history, TokenWindows) else history[..., -1, :])  # its parameters
             proj = token_proj.variables["params"]
             gla = GatedLinearAttention(hidden=self.dim, heads=self.heads)
             return nn.LayerNorm(name="hist_norm")(gla(history, (proj["kernel"], proj["bias"])))
+        if isinstance(history, TokenWindows):
+            history = history.materialize()  # the other encoders read every window whole
         x = token_proj(history)
         if self.kind == "gru":
             cell = nn.GRUCell(features=self.dim, kernel_init=TORCH_LINEAR_INIT,

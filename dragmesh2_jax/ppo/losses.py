@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from dragmesh2_jax.policies.gla import TokenWindows
 from dragmesh2_jax.ppo.config import PPOConfig
 
 LOG2PI = float(np.log(2 * np.pi))
@@ -23,7 +24,7 @@ BOUND = 1.1  # rl_games' bounds loss acts on |mu| beyond this
 @struct.dataclass
 class Batch:
     state: jnp.ndarray  # normalised network inputs
-    history: jnp.ndarray
+    history: jnp.ndarray | TokenWindows  # the windows, or a rollout's windows sharing their tokens
     privileged: jnp.ndarray
     aux_target: jnp.ndarray  # z-scored auxiliary targets
     action: jnp.ndarray
@@ -33,6 +34,11 @@ class Batch:
     value: jnp.ndarray  # normalised value prediction at rollout time
     advantage: jnp.ndarray
     target: jnp.ndarray  # normalised return target
+
+    def take(self, index: jnp.ndarray) -> Batch:
+        """The samples at ``index`` (a minibatch)."""
+        history = self.history.take(index) if isinstance(self.history, TokenWindows) else self.history[index]
+        return jax.tree.map(lambda x: x[index], self.replace(history=None)).replace(history=history)
 
 
 def gaussian_logp(a, mu, log_std):

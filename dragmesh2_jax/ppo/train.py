@@ -33,6 +33,7 @@ from flax import struct
 
 from dragmesh2_jax.physics.batch import map_batched
 from dragmesh2_jax.policies.controller import Controller
+from dragmesh2_jax.policies.gla import TokenWindows
 from dragmesh2_jax.policies.methods import Method
 from dragmesh2_jax.policies.networks import ActorCritic, make_inference_fn
 from dragmesh2_jax.policies.normalize import RunningStats
@@ -201,6 +202,9 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
     flat = lambda x: x.reshape(n, *x.shape[2:])  # noqa: E731
     obs = jax.tree.map(flat, traj["obs"])
     s_in, h_in, p_in = _inputs(program, ts, obs)
+    if program.method.encoder == "gla":  # each distinct history token through GLA's projections once
+        norm = ts.token_stats.normalize if c.normalize_obs else (lambda x: x)
+        h_in = TokenWindows.of_rollout(traj["obs"].history, traj["done"], norm)
     # values were predicted in the old value normalisation: re-express old predictions and targets in the new
     old_v = flat(traj["value"]) * jnp.sqrt(ts.value_stats.var[0] + 1e-5) + ts.value_stats.mean[0]
     norm = lambda x: (x - vs.mean[0]) / jnp.sqrt(vs.var[0] + 1e-5)  # noqa: E731
@@ -218,7 +222,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
         perm = jax.random.permutation(k, n).reshape(c.num_minibatches, -1)
 
         def minibatch(ts, idx):
-            mb = jax.tree.map(lambda x: x[idx], batch)
+            mb = batch.take(idx)
             grads, info = grad_fn(ts.params, batch=mb, w_aux=w_aux)
             clip_state, adam_state = ts.opt_state
             adam_state = adam_state._replace(hyperparams={**adam_state.hyperparams, "learning_rate": ts.lr})

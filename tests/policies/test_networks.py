@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from dragmesh2_jax.policies.gla import GatedLinearAttention, gla_last, gla_recurrent
+from dragmesh2_jax.policies.gla import GatedLinearAttention, TokenWindows, gla_last, gla_recurrent
 from dragmesh2_jax.policies.methods import METHODS, get_method, task_overrides
 from dragmesh2_jax.policies.networks import (
     ENCODERS,
@@ -79,6 +79,45 @@ def test_gla_with_the_token_projection_folded_in_equals_projecting_first():
     folded = layer.apply(params, tokens, (W, b))
     np.testing.assert_allclose(np.asarray(folded), np.asarray(layer.apply(params, tokens @ W + b)), rtol=1e-4,
                                atol=1e-4)
+
+
+def _rollout_histories(stream, done, L):
+    """The windows AutoReset hands the policy: each step shifts in the world's newest token; after a step whose
+    episode ended, the window is zeros but the new episode's first token."""
+    T, N = done.shape
+    out = np.zeros((T, N, L, stream.shape[-1]), np.float32)
+    for n in range(N):
+        h = stream[n, :L].copy()
+        for t in range(T):
+            if t > 0:
+                tok = stream[n, L - 1 + t]
+                h = np.concatenate([np.zeros_like(h[:-1]), tok[None]]) if done[t - 1, n] else \
+                    np.concatenate([h[1:], tok[None]])
+            out[t, n] = h
+    return out
+
+
+def test_a_rollouts_windows_share_their_tokens_and_give_the_same_outputs():
+    """TokenWindows (the update's history) hold each world's token stream once: every window, episode starts inside
+    the rollout included, is exactly the one AutoReset gave the policy, and the GLA encoder's outputs on them equal
+    those on the windows themselves."""
+    T, N, L, D = 7, 3, 4, 5
+    rng = np.random.default_rng(0)
+    stream = rng.normal(size=(N, L + T - 1, D)).astype(np.float32)
+    done = np.zeros((T, N), bool)
+    done[1, 0] = done[4, 0] = done[2, 2] = True  # world 0 restarts twice, world 2 once, world 1 never
+    hist = _rollout_histories(stream, done, L)
+    norm = lambda x: (x - 0.3) / 1.7  # noqa: E731  a token normaliser: the zero token is not zero after it
+    w = TokenWindows.of_rollout(jnp.asarray(hist), jnp.asarray(done), norm)
+    explicit = np.asarray(norm(jnp.asarray(hist.reshape(T * N, L, D))))
+    np.testing.assert_array_equal(np.asarray(w.materialize()), explicit)
+    assert w.stream.shape == (N, L + T - 1, D)  # 27 distinct tokens for 84 window slots
+    idx = jnp.asarray([5, 0, 17])
+    np.testing.assert_array_equal(np.asarray(w.take(idx).materialize()), explicit[np.asarray(idx)])
+    enc = TemporalEncoder("gla", dim=16, heads=2)
+    params = enc.init(jax.random.PRNGKey(0), jnp.asarray(explicit))
+    np.testing.assert_allclose(np.asarray(enc.apply(params, w)), np.asarray(enc.apply(params, jnp.asarray(explicit))),
+                               rtol=1e-5, atol=1e-5)
 
 
 @pytest.mark.parametrize("encoder", ENCODERS)
