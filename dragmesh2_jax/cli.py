@@ -38,6 +38,7 @@ from dragmesh2_jax.ppo.finetune import FINETUNES
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
 from dragmesh2_jax.reproduce import TABLES, ReproduceConfig, reproduce
 from dragmesh2_jax.runs.commands import (
+    dataset_objects,
     describe_object,
     evaluate_baseline,
     evaluate_checkpoint,
@@ -245,8 +246,16 @@ def cmd_train(args) -> int:
         if any(s != int(s) for s in seeds) or len(set(seeds)) < len(seeds):
             raise DragMeshError(f"--seeds: distinct whole numbers expected, got {args.seeds!r}")
         seeds = [int(s) for s in seeds]
+    objects, trajectory = args.object, args.trajectory
+    if args.objects or args.dataset:
+        if args.object:
+            raise DragMeshError("give --object (one object), or --objects / --dataset (several), not both")
+        objects, trajectory = list(args.objects or []), [None] * len(args.objects or [])
+        if args.dataset:
+            more, trajs = dataset_objects(args.dataset)
+            objects, trajectory = objects + more, trajectory + trajs
     program, logs = train_run(
-        args.out, args.object, args.trajectory, args.method, args.backend, args.impl, seeds, args.resume,
+        args.out, objects, trajectory, args.method, args.backend, args.impl, seeds, args.resume, holdout=args.holdout,
         task_changes=config_changes(args, "task"), scene_changes=config_changes(args, "scene"),
         network_changes=config_changes(args, "network"), selection=Selection(every=args.robust_every),
         save_every=args.save_every, progress=not args.quiet, wandb=args.wandb,
@@ -262,7 +271,8 @@ def cmd_train(args) -> int:
 
 def cmd_finetune(args) -> int:
     parent, rows = finetune_run(args.checkpoint, args.recipe, args.out, _engine(args.backend), args.impl, args.epochs,
-                                Selection(every=args.robust_every), args.save_every, not args.quiet)
+                                Selection(every=args.robust_every), args.save_every, not args.quiet, args.object,
+                                args.trajectory)
     last = rows[-1] if rows else {}
     print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, training success "
           f"{last.get('success', 0):.2f}, clip099 {last.get('clip099', 0):.2f}, {last.get('seconds', 0):.0f} s")
@@ -285,7 +295,8 @@ def cmd_evaluate(args) -> int:
     if bool(args.checkpoint) == bool(args.method):
         raise DragMeshError("give --checkpoint (a trained run) or --method with --object (a controller), not both")
     if args.checkpoint:
-        result, path = evaluate_checkpoint(args.checkpoint, protocol, _engine(args.backend), args.impl)
+        result, path = evaluate_checkpoint(args.checkpoint, protocol, _engine(args.backend), args.impl, args.object,
+                                           args.trajectory)
         _err(f"evaluation: {path}")
     else:
         result = evaluate_baseline(args.method, args.object, args.trajectory, protocol, args.backend, args.impl)
@@ -483,6 +494,11 @@ def build_parser() -> argparse.ArgumentParser:
     ptr = sub.add_parser("train", help="train a policy with PPO")
     ptr.add_argument("--method", default="pica", help="recommended | " + " | ".join(METHODS))
     ptr.add_argument("--object", help="object folder")
+    ptr.add_argument("--objects", nargs="+", metavar="FOLDER", help="several object folders: one policy over all of "
+                                                                    "them (each world draws one at every reset)")
+    ptr.add_argument("--dataset", help="a folder written by dataset build: its objects whose trajectory passed")
+    ptr.add_argument("--holdout", type=int, default=0, help="of several objects, the last this many are held aside: "
+                                                            "best_robust is chosen on them")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
     ptr.add_argument("--out", required=True, help="run folder")
     ptr.add_argument("--epochs", type=int)
@@ -512,6 +528,9 @@ def build_parser() -> argparse.ArgumentParser:
     pft.add_argument("--save-every", type=int, default=10)
     pft.add_argument("--robust-every", type=int, default=Selection.every)
     pft.add_argument("--quiet", action="store_true")
+    pft.add_argument("--object", help="fine-tune onto this object folder instead of the run's own (e.g. a policy "
+                                      "trained over several objects, onto a new one)")
+    pft.add_argument("--trajectory", help="trajectory file of --object (default: generate one)")
     _add_backend_args(pft)
     pft.set_defaults(func=cmd_finetune)
 
@@ -522,8 +541,8 @@ def build_parser() -> argparse.ArgumentParser:
                                       "(the expert drag replayed as PD targets) | tracking_delta (the same drag "
                                       "through the policies' action increments) | parallel_jaw (the GT-part-pose "
                                       "gripper primitive)")
-    pev.add_argument("--object", help="object folder (with --method)")
-    pev.add_argument("--trajectory", help="trajectory file (with --method; default: generate one)")
+    pev.add_argument("--object", help="object folder (with --method; with --checkpoint: the policy zero-shot on it)")
+    pev.add_argument("--trajectory", help="trajectory file of --object (default: generate one)")
     pev.add_argument("--damping", default=_csv(PAPER.dampings))
     pev.add_argument("--mode", default=",".join(PAPER.modes))
     pev.add_argument("--episodes", type=int, default=PAPER.episodes)

@@ -207,3 +207,12 @@ def test_envelope_prints_the_cells_and_rejects_a_bad_pace(capsys):
     for bad in (["--paces", "0"], ["--paces", "fast"], ["--damping", "-1"]):
         assert dragmesh2(["envelope", "--object", obj, "--backend", "mujoco", *bad]) == 2
     assert capsys.readouterr().err.count("error:") == 3
+
+
+def test_several_objects_are_given_one_way_and_checked_before_anything_trains(tmp_path, capsys):
+    obj = str(default_object())
+    for bad in (["--object", obj, "--objects", obj, obj], ["--dataset", str(tmp_path)],
+                ["--objects", obj, obj, "--holdout", "2"]):
+        assert dragmesh2(["train", "--out", str(tmp_path / "x"), "--backend", "mujoco", *bad]) == 2
+    err = capsys.readouterr().err
+    assert "not both" in err and "not a dataset folder" in err and "--holdout 2" in err

@@ -72,7 +72,8 @@ class _HostStepper:
             models = self._world_models(n)
             for name, values in fields.items():
                 for m, v in zip(models, values, strict=True):
-                    getattr(m, name)[...] = v
+                    field = getattr(m, name)  # an object of a mix may have fewer geoms than the padded field
+                    field[...] = v[tuple(slice(0, n) for n in field.shape)]
             init = np.zeros((n, self.nstate))
             init[:, self.qpos_sl], init[:, self.qvel_sl] = qpos, qvel
             control = np.zeros((n, self.substeps, self.base.nu))

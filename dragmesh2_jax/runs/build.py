@@ -12,6 +12,7 @@ from dragmesh2_jax.runs.spec import RunSpec
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask, trajectory_joint
+from dragmesh2_jax.task.mix import ObjectMix
 from dragmesh2_jax.trajectory.generator import generate
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory
 
@@ -46,6 +47,32 @@ def load_task(object_dir: str, trajectory: str | Trajectory | None = None, backe
     return task_of(object_dir, trajectory, config, scene_config or SceneConfig())
 
 
-def program_of(spec: RunSpec, trajectory: str | Trajectory | None = None) -> TrainProgram:
-    """The training program of ``spec`` (its task on ``trajectory``, generated when None)."""
-    return make_train(task_of(spec.object, trajectory, spec.task, spec.scene), spec.preset, spec.ppo)
+TrajectoryArg = str | Trajectory | None
+
+
+def tasks_of(spec: RunSpec, trajectories: TrajectoryArg | list[TrajectoryArg] = None) -> list[PullTask]:
+    """One task per object of ``spec`` (training objects, then held-aside ones), each on its trajectory (a file, a
+    trajectory, or None: generated); a single trajectory is the first object's."""
+    objects = spec.objects or (spec.object,)
+    trajs = list(trajectories) if isinstance(trajectories, list | tuple) else [trajectories]
+    trajs += [None] * (len(objects) - len(trajs))
+    return [task_of(o, t, spec.task, spec.scene) for o, t in zip(objects, trajs, strict=True)]
+
+
+def mix_of(tasks: list[PullTask]) -> PullTask | ObjectMix:
+    return tasks[0] if len(tasks) == 1 else ObjectMix(tasks)
+
+
+def programs_of(spec: RunSpec, trajectories: TrajectoryArg | list[TrajectoryArg] = None
+                ) -> tuple[TrainProgram, PullTask | ObjectMix | None, list[PullTask]]:
+    """The training program of ``spec`` (over its training objects), the held-aside objects' env that chooses its
+    checkpoints (None: the training env itself) and every object's task."""
+    tasks = tasks_of(spec, trajectories)
+    n = len(tasks) - spec.holdout
+    program = make_train(mix_of(tasks[:n]), spec.preset, spec.ppo)
+    return program, (mix_of(tasks[n:]) if spec.holdout else None), tasks
+
+
+def program_of(spec: RunSpec, trajectories: TrajectoryArg | list[TrajectoryArg] = None) -> TrainProgram:
+    """The training program of ``spec`` (its task on its trajectories, generated where None)."""
+    return programs_of(spec, trajectories)[0]

@@ -4,6 +4,8 @@ checkpoint or a controller that needs no training, render a run's video."""
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 from pathlib import Path
 
@@ -84,23 +86,44 @@ def make_trajectory(object_dir: str, out: str, render: str | None = None, render
     return traj, (render_trajectory_gif(obj, traj, render, renderer=renderer) if render else None)
 
 
-def train_run(out: str, object_dir: str | None, trajectory: str | None, method: str, backend: str = "auto",
-              impl: str = "jax", seeds: list[int] | None = None, resume: bool = False, task_changes: dict | None = None,
-              scene_changes: dict | None = None, network_changes: dict | None = None,
-              selection: Selection = Selection(), save_every: int = 10, progress: bool = True,
-              wandb: str | None = None, **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
+def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str,
+              backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
+              task_changes: dict | None = None, scene_changes: dict | None = None,
+              network_changes: dict | None = None, selection: Selection = Selection(), save_every: int = 10,
+              progress: bool = True, wandb: str | None = None, holdout: int = 0,
+              **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
-    record (``resume``: ``ppo["epochs"]`` extends it); returns (program, [(seed, log rows)])."""
+    record (``resume``: ``ppo["epochs"]`` extends it); ``object_dir`` a list: one policy over several objects, the
+    last ``holdout`` held aside for checkpoint selection. Returns (program, [(seed, log rows)])."""
     runs = [RunDir(Path(out) / f"seed_{s}") for s in seeds] if seeds else [RunDir(out)]
     if resume:
         program, _, logs = start_or_resume(None, runs, resume=True, epochs=ppo.get("epochs"), backend=backend,
                                            impl=impl, save_every=save_every, selection=selection, progress=progress,
                                            wandb=wandb)
         return program, [(r.spec().ppo.seed, rows) for r, rows in zip(runs, logs, strict=True)]
-    spec = method_spec(method, object_dir, ppo, task_changes, scene_changes, backend, impl, network_changes)
+    spec = method_spec(method, object_dir, ppo, task_changes, scene_changes, backend, impl, network_changes, holdout)
     program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, save_every=save_every,
                                        selection=selection, progress=progress, wandb=wandb)
     return program, list(zip(seeds or [spec.ppo.seed], logs, strict=True))
+
+
+def dataset_objects(folder: str | Path) -> tuple[list[str], list[str]]:
+    """The object folders of a dataset (written by ``dataset build``) whose trajectory passed its gate, and those
+    trajectories."""
+    records = sorted((Path(folder) / "records").glob("*.json"))
+    if not records:
+        raise DragMeshError(f"{folder}: not a dataset folder (no records; make one with dragmesh2 dataset build)")
+    passed = []
+    for path in records:
+        try:
+            rec = json.loads(path.read_text())
+        except json.JSONDecodeError as e:
+            raise DragMeshError(f"{path}: not valid JSON ({e})") from None
+        if rec.get("passed") and rec.get("trajectory"):
+            passed.append((rec["folder"], str(Path(folder) / rec["trajectory"])))
+    if not passed:
+        raise DragMeshError(f"{folder}: no object of the dataset passed its trajectory gate")
+    return [o for o, _ in passed], [t for _, t in passed]
 
 
 def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "jax", keep_env: bool = True
@@ -112,11 +135,11 @@ def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "ja
     run, ck = RunDir.of_checkpoint(checkpoint)
     spec = run.spec()
     trained_on = run.backend
-    program = program_of(spec.on(backend or trained_on, impl), run.trajectory())
+    program = program_of(spec.on(backend or trained_on, impl), run.trajectories())
     fresh = init_jit(program, program.data(), seed_keys([spec.ppo.seed])[0])
     if program.task.backend.name == trained_on:
         return program, load_checkpoint(fresh, ck, keep_env=keep_env), run, ck
-    source = program_of(spec.on(trained_on, impl), run.trajectory())
+    source = program_of(spec.on(trained_on, impl), run.trajectories())
     src = load_checkpoint(init_jit(source, source.data(), seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
     return program, fresh.replace(params=src.params, state_stats=src.state_stats, token_stats=src.token_stats,
                                   aux_stats=src.aux_stats, privileged_stats=src.privileged_stats,
@@ -125,30 +148,49 @@ def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "ja
 
 def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "jax",
                  epochs: int | None = None, selection: Selection = Selection(), save_every: int = 10,
-                 progress: bool = True) -> tuple[Path, list[dict]]:
+                 progress: bool = True, object_dir: str | None = None,
+                 trajectory: str | None = None) -> tuple[Path, list[dict]]:
     """A fine-tune preset continuing a trained run from ``checkpoint`` for the preset's epochs (or ``epochs``),
-    counted on from the checkpoint's epoch, into ``out``; returns (parent checkpoint, log rows)."""
+    counted on from the checkpoint's epoch, into ``out`` (on ``object_dir`` instead of the run's objects: a policy
+    trained over several objects fine-tuned onto a new one); returns (parent checkpoint, log rows)."""
     more = get_finetune(recipe).epochs if epochs is None else epochs
     if more < 1:
         raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")
     parent, ts, run, ck = load_run(checkpoint, backend, impl)
     spec = finetune_spec(run.spec().on(parent.task.backend.name, impl), recipe, str(ck.resolve()),
                          int(ts.epoch) + more)
-    program = program_of(spec, run.trajectory())
+    trajectories = run.trajectories()
+    if object_dir:
+        spec = dataclasses.replace(spec, object=str(object_dir), objects=(), holdout=0)
+        trajectories = [trajectory]
+    program = program_of(spec, trajectories)
     start = load_checkpoint(init_jit(program, program.data(), seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
-    _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=run.trajectory(), resume=False, start=start,
-                                 save_every=save_every, selection=selection, progress=progress)
+    _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=[t.traj for t in tasks_of_program(program)],
+                                 resume=False, start=start, save_every=save_every, selection=selection,
+                                 progress=progress)
     return ck, logs[0]
 
 
+def tasks_of_program(program: TrainProgram) -> list:
+    """The tasks a program trains on (one, or each object of a mix)."""
+    return list(getattr(program.task, "tasks", (program.task,)))
+
+
 def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend: str | None = None,
-                        impl: str = "jax") -> tuple[dict, Path]:
-    """The protocol for a trained run's checkpoint, written into the run's evaluations (keyed by checkpoint and
-    protocol); returns the result and its file."""
+                        impl: str = "jax", object_dir: str | None = None,
+                        trajectory: str | None = None) -> tuple[dict, Path]:
+    """The protocol for a trained run's checkpoint on its own object(s), or zero-shot on ``object_dir`` (any object
+    folder; its trajectory generated unless given), written into the run's evaluations (keyed by checkpoint,
+    protocol and, zero-shot, object); returns the result and its file."""
     program, ts, run, ck = load_run(checkpoint, backend, impl)
-    result = evaluate(protocol.task(program.task), program.controller(ts), protocol)
-    result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs())
-    return result, run.write_evaluation(ck, protocol, result, markdown_table(result))
+    task = program.task
+    if object_dir:
+        task = task_of(object_dir, trajectory, task.config, task.scene.config)
+    result = evaluate(protocol.task(task), program.controller(ts), protocol)
+    result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs(),
+                  zero_shot=bool(object_dir))
+    on = Path(object_dir).name if object_dir else None
+    return result, run.write_evaluation(ck, protocol, result, markdown_table(result), on=on)
 
 
 def baseline_controllers() -> dict:

@@ -64,16 +64,20 @@ class RunDir:
         return self.record_path.is_file()
 
     # ----------------------------------------------------------------------------------- the record
-    def start(self, spec: RunSpec, backend: str, trajectory: Trajectory, replace: bool = False,
+    def start(self, spec: RunSpec, backend: str, trajectory: Trajectory | list[Trajectory], replace: bool = False,
               buffers: dict | None = None) -> None:
-        """Write the record and the trajectory of a new run (once: a folder that holds a run is an error unless
-        ``replace``, for a run that stopped before it saved anything)."""
+        """Write the record and the trajectory of a new run (a run over several objects: one per object, in the
+        spec's order) once: a folder that holds a run is an error unless ``replace``, for a run that stopped before
+        it saved anything."""
         if self.exists() and not replace:
             raise DragMeshError(f"{self.path}: already holds a run (use --resume, or another --out)")
         if self.exists():
             shutil.rmtree(self.path)
         self.path.mkdir(parents=True, exist_ok=True)
-        write_trajectory(trajectory, self.trajectory_path)
+        trajectories = trajectory if isinstance(trajectory, list) else [trajectory]
+        write_trajectory(trajectories[0], self.trajectory_path)
+        for i, t in enumerate(trajectories[1:], 1):
+            write_trajectory(t, self._object_trajectory_path(i))
         atomic_write_json(self.record_path, spec.record(backend, buffers))
         self._record = None
 
@@ -103,6 +107,14 @@ class RunDir:
 
     def trajectory(self) -> Trajectory:
         return read_trajectory(self.trajectory_path)
+
+    def _object_trajectory_path(self, index: int) -> Path:
+        return self.path / "trajectories" / f"object_{index:03d}.json"
+
+    def trajectories(self) -> list[Trajectory]:
+        """Every object's trajectory, in the spec's order (one for a single-object run)."""
+        n = max(len(self.spec().objects), 1)
+        return [self.trajectory(), *(read_trajectory(self._object_trajectory_path(i)) for i in range(1, n))]
 
     # -------------------------------------------------------------------------------- checkpoints
     def checkpoint(self, name: str) -> Path:
@@ -181,18 +193,23 @@ class RunDir:
         atomic_write_text(self.path / f"{stem}.csv", buf.getvalue())
 
     # -------------------------------------------------------------------------------- evaluations
-    def evaluation_path(self, checkpoint: Path, protocol: EvalProtocol, suffix: str = ".json") -> Path:
-        return self.path / "evaluations" / f"{checkpoint.name}__{protocol.name}{suffix}"
+    def evaluation_path(self, checkpoint: Path, protocol: EvalProtocol, suffix: str = ".json",
+                        on: str | None = None) -> Path:
+        """Where an evaluation goes: by checkpoint and protocol, and ``on`` another object than the run's own (a
+        zero-shot evaluation, by the object's name)."""
+        where = f"__on-{on}" if on else ""
+        return self.path / "evaluations" / f"{checkpoint.name}__{protocol.name}{where}{suffix}"
 
-    def write_evaluation(self, checkpoint: Path, protocol: EvalProtocol, result: dict, markdown: str) -> Path:
-        path = self.evaluation_path(checkpoint, protocol)
+    def write_evaluation(self, checkpoint: Path, protocol: EvalProtocol, result: dict, markdown: str,
+                         on: str | None = None) -> Path:
+        path = self.evaluation_path(checkpoint, protocol, on=on)
         atomic_write_json(path, result)
-        atomic_write_text(self.evaluation_path(checkpoint, protocol, ".md"), markdown + "\n")
+        atomic_write_text(self.evaluation_path(checkpoint, protocol, ".md", on), markdown + "\n")
         return path
 
-    def evaluation(self, checkpoint: Path, protocol: EvalProtocol) -> dict | None:
-        """The evaluation of ``checkpoint`` under ``protocol`` when one was written, else None."""
-        path = self.evaluation_path(checkpoint, protocol)
+    def evaluation(self, checkpoint: Path, protocol: EvalProtocol, on: str | None = None) -> dict | None:
+        """The evaluation of ``checkpoint`` under ``protocol`` (``on`` another object) when one was written."""
+        path = self.evaluation_path(checkpoint, protocol, on=on)
         if not path.is_file():
             return None
         try:

@@ -35,7 +35,7 @@ from dragmesh2_jax.ppo.train import (
     train,
 )
 from dragmesh2_jax.progress import LogLines, to_log
-from dragmesh2_jax.runs.build import program_of
+from dragmesh2_jax.runs.build import programs_of
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.spec import RunSpec
 from dragmesh2_jax.trajectory.schema import Trajectory
@@ -55,11 +55,12 @@ class Selection:
         return row["mean_success"], row["worst_success"], -row["clip099_active"]
 
 
-def selection_check(program: TrainProgram, selection: Selection):
-    """``ts -> row``: det success per damping of the selection protocol (its own starts), one parallel rollout
-    compiled once per program signature."""
+def selection_check(program: TrainProgram, selection: Selection, heldout=None):
+    """``ts -> row``: det success per damping of the selection protocol (its own starts) on the training env, or on
+    ``heldout`` (a run's held-aside objects: each world draws one), one parallel rollout compiled once per program
+    signature."""
     p = selection.protocol
-    task, policy, dampings = p.task(program.task), program.make_policy(True), list(p.dampings)
+    task, policy, dampings = p.task(heldout or program.task), program.make_policy(True), list(p.dampings)
 
     def check(ts: TrainState) -> dict:
         result = rollout(task, policy, policy_params(ts), dampings, p.episodes, p.seed,
@@ -124,7 +125,7 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
         recorded = runs[0].spec()
         spec = recorded.on(backend, impl) if backend else recorded
         seeds = [r.spec().ppo.seed for r in runs]
-        program = program_of(spec, runs[0].trajectory())
+        program, heldout, _ = programs_of(spec, runs[0].trajectories())
         template = init_jit(program, program.data(), seed_keys(seeds[:1])[0])
         states = [load_checkpoint(template, r.epoch_checkpoints()[common]) for r in runs]
         ts = stack_runs(states)
@@ -136,23 +137,24 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
         for r in runs:
             if r.exists() and not (fresh and not r.epoch_checkpoints()):
                 raise DragMeshError(f"{r.path}: already holds a run (use --resume, or another --out)")
-        program = program_of(spec, trajectory)
+        program, heldout, tasks = programs_of(spec, trajectory)
         for r, s in zip(runs, seeds, strict=True):  # one stopped before its first checkpoint starts again
             budget = program.task.backend.budget
-            r.start(spec.with_seed(s), program.task.backend.name, program.task.traj, replace=True,
+            r.start(spec.with_seed(s), program.task.backend.name, [t.traj for t in tasks], replace=True,
                     buffers=None if budget is None else budget.to_json())
         ts = init_runs(program, program.data(len(seeds)), seed_keys(seeds)) if start is None else stack_runs([start])
         rows, robust_rows = [[] for _ in runs], [[] for _ in runs]
     target = epochs or spec.ppo.epochs
-    ts = _loop(program, runs, ts, rows, robust_rows, target, resume, save_every, selection, progress, log_fn, wandb)
+    ts = _loop(program, runs, ts, rows, robust_rows, target, resume, save_every, selection, progress, log_fn, wandb,
+               heldout)
     return program, ts, rows
 
 
 def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[list[dict]],
           robust_rows: list[list[dict]], epochs: int, resumed: bool, save_every: int, selection: Selection,
-          progress: bool, log_fn, wandb: str | None) -> TrainState:
+          progress: bool, log_fn, wandb: str | None, heldout=None) -> TrainState:
     c = program.config
-    check = selection_check(program, selection) if selection.every > 0 else None
+    check = selection_check(program, selection, heldout) if selection.every > 0 else None
     first = int(ts.epoch[0])
     best = [max((r["reward"] for r in rr), default=-np.inf) for rr in rows]
     best_robust = [max((selection.score(r) for r in rr), default=None) for rr in robust_rows]

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.io import hash_files
 from dragmesh2_jax.policies.methods import Method, get_method, task_overrides
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
@@ -38,6 +39,24 @@ class RunSpec:
     network: NetworkConfig = NetworkConfig()
     finetune: str | None = None  # a fine-tune's recipe
     parent: str | None = None  # the checkpoint a fine-tune continues
+    objects: tuple[str, ...] = ()  # a run over several objects: all of them, ``object`` first (empty: one object)
+    holdout: int = 0  # the last ``holdout`` of ``objects`` are held aside: best_robust is chosen on them
+
+    def __post_init__(self):
+        if self.objects and self.objects[0] != self.object:
+            raise DragMeshError("a run's objects list starts with its object")
+        if not 0 <= self.holdout < max(len(self.objects), 1):
+            raise DragMeshError(f"--holdout {self.holdout}: at least one of the {len(self.objects) or 1} object(s) "
+                                "must be left to train on")
+
+    @property
+    def training_objects(self) -> tuple[str, ...]:
+        every = self.objects or (self.object,)
+        return every[:len(every) - self.holdout]
+
+    @property
+    def heldout_objects(self) -> tuple[str, ...]:
+        return self.objects[len(self.objects) - self.holdout:] if self.holdout else ()
 
     @property
     def preset(self) -> Method:
@@ -52,8 +71,11 @@ class RunSpec:
         return dataclasses.replace(self, task=dataclasses.replace(self.task, backend=backend, impl=impl))
 
     def record(self, backend: str, buffers: dict | None = None) -> dict:
-        """The record of this spec (``backend``: the engine it resolved to; ``buffers``: MJX's contact budget)."""
+        """The record of this spec (``backend``: the engine it resolved to; ``buffers``: MJX's contact budget; a run
+        over several objects names each with the content hash of its folder)."""
+        objects = [{"folder": str(Path(o).resolve()), "hash": object_hash(o)} for o in self.objects]
         return {"format": RECORD_FORMAT, "method": self.method, "object": str(Path(self.object).resolve()),
+                "objects": objects, "holdout": self.holdout,
                 "finetune": self.finetune, "parent": self.parent, "backend": backend, "buffers": buffers,
                 "ppo": config_to_dict(self.ppo), "task": config_to_dict(self.task),
                 "scene": config_to_dict(self.scene), "network": config_to_dict(self.network), "versions": versions()}
@@ -79,26 +101,39 @@ class RunSpec:
         get_method(record["method"])
         if record.get("finetune") is not None:
             get_finetune(record["finetune"])
-        return cls(method=record["method"], object=record["object"],
-                   ppo=config_from_dict(PPOConfig, record["ppo"], where),
+        objects = record.get("objects") or []
+        if not isinstance(objects, list) or not all(isinstance(o, dict) and isinstance(o.get("folder"), str)
+                                                    for o in objects):
+            raise DragMeshError(f"{where}: objects must be a list of {{folder, hash}}, got {objects!r}")
+        holdout = record.get("holdout", 0)
+        if not isinstance(holdout, int):
+            raise DragMeshError(f"{where}: holdout must be a whole number, got {holdout!r}")
+        return cls(method=record["method"], object=record["object"], objects=tuple(o["folder"] for o in objects),
+                   holdout=holdout, ppo=config_from_dict(PPOConfig, record["ppo"], where),
                    task=config_from_dict(TaskConfig, record["task"], where),
                    scene=config_from_dict(SceneConfig, record.get("scene", {}), where),
                    network=config_from_dict(NetworkConfig, record.get("network", {}), where),
                    finetune=record.get("finetune"), parent=record.get("parent"))
 
 
-def method_spec(method: str, object_dir: str, ppo: dict | None = None, task: dict | None = None,
+def method_spec(method: str, object_dir: str | list[str], ppo: dict | None = None, task: dict | None = None,
                 scene: dict | None = None, backend: str = "auto", impl: str = "jax",
-                network: dict | None = None) -> RunSpec:
+                network: dict | None = None, holdout: int = 0) -> RunSpec:
     """A new run of a method preset: the preset's task (its overrides of the paper's) with ``task`` (TaskConfig
     fields) on top, the default scene with ``scene`` on top, the PPO defaults with ``ppo`` on top (None values
-    keep the default), the preset's network with ``network`` (NetworkConfig fields) on top."""
+    keep the default), the preset's network with ``network`` (NetworkConfig fields) on top. ``object_dir`` may be
+    a list of object folders: one policy over all of them, the last ``holdout`` held aside for checkpoint
+    selection."""
+    objects = [str(o) for o in object_dir] if isinstance(object_dir, list | tuple) else []
+    object_dir = objects[0] if objects else object_dir
     if not object_dir:
         raise DragMeshError("no object folder given (--object)")
+    if len(objects) == 1:
+        objects = []
     m = get_method(method)
     method = m.name  # "recommended" recorded as the recipe it stands for
     task_config = TaskConfig(backend=backend, impl=impl, **{**task_overrides(m), **(task or {})})
-    return RunSpec(method=method, object=str(object_dir),
+    return RunSpec(method=method, object=str(object_dir), objects=tuple(objects), holdout=holdout,
                    ppo=PPOConfig(**{k: v for k, v in (ppo or {}).items() if v is not None}),
                    task=task_config, scene=dataclasses.replace(SceneConfig(), **(scene or {})),
                    network=dataclasses.replace(m.network, **(network or {})))
@@ -111,3 +146,12 @@ def finetune_spec(parent: RunSpec, recipe: str, checkpoint: str, epochs: int) ->
     task = dataclasses.replace(parent.task, **ft.task_overrides(parent.task.reward))
     return dataclasses.replace(parent, task=task, ppo=dataclasses.replace(parent.ppo, epochs=epochs),
                                finetune=recipe, parent=str(checkpoint))
+
+
+def object_hash(folder: str | Path) -> str:
+    """The content hash of an object folder: every file under it, in path order."""
+    root = Path(folder)
+    files = sorted(p for p in root.rglob("*") if p.is_file())
+    if not files:
+        raise DragMeshError(f"{root}: no object files to hash")
+    return hash_files(files, extra="\n".join(str(p.relative_to(root)) for p in files))

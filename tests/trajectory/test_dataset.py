@@ -2,8 +2,10 @@
 
 import csv
 import shutil
+from pathlib import Path
 
 from dragmesh2_jax.assets import procedural
+from dragmesh2_jax.runs.commands import dataset_objects
 from dragmesh2_jax.trajectory.dataset import build_dataset
 from tests.conftest import installed_command
 
@@ -60,6 +62,8 @@ def test_cli_dataset_of_procedural_objects_resumes(tmp_path, capsys):
     # stderr is not a terminal here: one plain progress line per trajectory, with elapsed and estimated time left
     lines = [ln for ln in printed.err.splitlines() if ln.startswith("dataset build: ")]
     assert [ln.split()[2] for ln in lines] == ["1/3", "2/3", "3/3"] and all("left ~" in ln for ln in lines)
+    objects, trajectories = dataset_objects(out)  # what train --dataset trains on
+    assert len(objects) == 3 and all(Path(t).is_file() for t in trajectories)
     summary = (out / "summary.md").read_text()
     assert "| StorageFurniture | 3 | 3 | 0 | 1.00 |" in summary and "| 256 |" in summary
     records = sorted((out / "records").iterdir())
