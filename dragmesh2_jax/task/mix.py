@@ -9,6 +9,7 @@ each world steps its own object's host model; fields indexed by geom are padded 
 model itself is stacked, so objects mix only when their models have the same structure (the same geoms, meshes and
 static fields: one object at other dampings, frictions or masses, or procedural objects built from the same
 pieces); objects of other structures are one clear error (train them as separate runs, or group them by structure).
+MJX-Warp does not mix objects: its contact buffer belongs to the whole batch, not to a world.
 """
 
 from __future__ import annotations
@@ -57,6 +58,9 @@ class ObjectMix:
         if not tasks:
             raise DragMeshError("an object mix needs at least one task")
         base = tasks[0]
+        if getattr(base.backend, "impl", None) == "warp" and len(tasks) > 1:
+            raise DragMeshError("MJX-Warp trains one object per run (its contact buffer is the batch's, not a "
+                                "world's); mix objects on the C engine or on MJX-JAX")
         for t in tasks[1:]:
             if t.signature() != base.signature() or t.num_starts != base.num_starts:
                 raise DragMeshError(f"object {t.scene.obj.object_id} does not share the first object's task config, "

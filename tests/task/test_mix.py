@@ -1,6 +1,8 @@
 """Several objects in one batch (task/mix.py): each world draws an object at reset and keeps it for the episode, and
 steps that object's physics; on MJX only objects of one model structure can share a batch (a clear error otherwise)."""
 
+import importlib.util
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -46,6 +48,10 @@ def test_on_mjx_only_objects_of_one_structure_share_a_batch():
     assert mix.data.physics.model.dof_damping.shape[0] == 2
     with pytest.raises(DragMeshError, match="cannot share one batch on this engine"):
         ObjectMix([same[0], load_task(DOOR, None, backend="mjx")])
+    if importlib.util.find_spec("warp") is not None:
+        warp = load_task(DRAWER, base.traj, backend="mjx", impl="warp")
+        with pytest.raises(DragMeshError, match="MJX-Warp trains one object per run"):
+            ObjectMix([warp, warp])
 
 
 def test_objects_of_another_task_config_do_not_mix():
