@@ -2,7 +2,11 @@
 every metric the epoch returns in the log, and the paper's diagnostic fine-tunes started from a checkpoint."""
 
 import dataclasses
+import os
 import struct
+import subprocess
+import sys
+from pathlib import Path
 
 import jax
 import pytest
@@ -20,6 +24,9 @@ from tests.conftest import require_package, tiny_spec
 
 #: The module's trained run is built once: keep the file on one xdist worker.
 pytestmark = pytest.mark.xdist_group(__name__)
+
+REPO = Path(__file__).resolve().parents[2]
+WANDB_TIMEOUT_S = 600
 
 SELECT = Selection(every=2, protocol=dataclasses.replace(SELECTION, episodes=2))
 
@@ -94,15 +101,20 @@ def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
     assert program.task.config.reward.reconfig == ReconfigConfig()
 
 
-def test_the_same_scalars_go_to_weights_and_biases_offline(tmp_path, monkeypatch):
-    """``--wandb PROJECT``: the run's TensorBoard scalars (training and robustness) logged to W&B too, here offline."""
+def test_the_same_scalars_go_to_weights_and_biases_offline(tmp_path):
+    """``--wandb PROJECT``: the run's TensorBoard scalars (training and robustness) logged to W&B too, here offline.
+    In its own process: W&B's service threads outlive ``finish()`` and must not share a worker with MuJoCo's."""
     require_package("wandb")
-    monkeypatch.setenv("WANDB_MODE", "offline")
-    monkeypatch.setenv("WANDB_SILENT", "true")
-    run = RunDir(tmp_path / "run")
-    start_or_resume(tiny_spec(epochs=2), [run], resume=False, selection=SELECT, progress=False, wandb="dragmesh2-test")
-    (log,) = (run.path / "wandb").glob("offline-run-*/run-*.wandb")
+    run = tmp_path / "run"
+    script = ("from dragmesh2_jax.runs.rundir import RunDir\n"
+              "from dragmesh2_jax.runs.session import start_or_resume\n"
+              "from tests.runs.test_session import SELECT\n"
+              "from tests.conftest import tiny_spec\n"
+              f"start_or_resume(tiny_spec(epochs=2), [RunDir({str(run)!r})], resume=False, selection=SELECT,\n"
+              "                progress=False, wandb='dragmesh2-test')\n")
+    env = {**os.environ, "WANDB_MODE": "offline", "WANDB_SILENT": "true"}
+    subprocess.run([sys.executable, "-c", script], env=env, cwd=REPO, check=True, timeout=WANDB_TIMEOUT_S)
+    (log,) = (run / "wandb").glob("offline-run-*/run-*.wandb")
     data = log.read_bytes()
     assert all(key.encode() in data for key in ("train/success", "train/loss", "robust/mean_success"))
     assert b"dragmesh2-test" in data and b"pica" in data  # the project, and the run record as its config
-
