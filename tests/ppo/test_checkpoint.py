@@ -15,7 +15,7 @@ from tests.conftest import tiny_program
 pytestmark = pytest.mark.xdist_group(__name__)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def programs():
     return tiny_program("pica"), tiny_program("state_only")
 

@@ -29,7 +29,7 @@ def _spec(epochs: int):
     return dataclasses.replace(spec, network=TINY_NET)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def mixed_run(tmp_path_factory):
     run = RunDir(tmp_path_factory.mktemp("mix") / "run")
     program, ts, _ = start_or_resume(_spec(2), [run], resume=False, **QUIET)

@@ -20,7 +20,7 @@ from tests.conftest import tiny_spec
 pytestmark = pytest.mark.xdist_group(__name__)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def run(tmp_path_factory):
     r = RunDir(tmp_path_factory.mktemp("rundir") / "run")
     start_or_resume(tiny_spec(), [r], resume=False, save_every=1, selection=Selection(every=0), progress=False)

@@ -31,7 +31,7 @@ WANDB_TIMEOUT_S = 600
 SELECT = Selection(every=2, protocol=dataclasses.replace(SELECTION, episodes=2))
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def trained_run(tmp_path_factory):
     run = RunDir(tmp_path_factory.mktemp("runs") / "pica")
     start_or_resume(tiny_spec(epochs=4), [run], resume=False, selection=SELECT, progress=False)
