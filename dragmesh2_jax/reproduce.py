@@ -441,6 +441,26 @@ def _fmt(xs: list[float]) -> str:
     return f"{np.mean(xs):.2f}±{np.std(xs, ddof=1) / np.sqrt(len(xs)):.2f}"
 
 
+def seeds_table(results: list[dict], labels: list[str], objects: list[str], seeds: tuple[int, ...],
+                dampings: tuple[float, ...] = PAPER_DAMPINGS) -> str:
+    """Every seed's success beside the means: method x damping x mode rows, one cell per object listing the values
+    of ``seeds`` in that order, '-' for one not evaluated yet (a mean carried by one lucky seed shows here)."""
+    names = [Path(o).name for o in objects]
+    lines = ["| method | damp | mode | " + " | ".join(names) + " |", "|---|---|---|" + "---|" * len(names)]
+    for label in labels:
+        for d in dampings:
+            for m in MODES:
+                cells = []
+                for o in names:
+                    by_seed = {r["seed"]: c["success_rate"] for r in results if r["label"] == label
+                               and r["object"] == o for c in r["cells"] if c["damping"] == d and c["mode"] == m}
+                    cells.append(", ".join(f"{by_seed[x]:.2f}" if x in by_seed else "-" for x in seeds)
+                                 if by_seed else "-")
+                if any(x != "-" for x in cells):
+                    lines.append(f"| {label} | x{d:g} | {m} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _paper(label: str, obj: str, damping: float) -> str:
     cell = PAPER_CELLS.get(label, {}).get(obj)
     if cell is None or damping not in PAPER_DAMPINGS:
@@ -567,7 +587,9 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
         labels = list(dict.fromkeys(r["label"] for r in results))
         fig = figure2(results, labels, list(c.objects), out / f"figure2_{table}.png", c.dampings)
         lines += ["Cells: det / stoch success, mean±SE over seeds; (paper det/stoch) where the paper has the object.",
-                  "", comparison_table(results, labels, list(c.objects), c.dampings), "", f"![Figure 2]({fig.name})"]
+                  "", comparison_table(results, labels, list(c.objects), c.dampings), "",
+                  f"Every seed's success (seeds {', '.join(map(str, c.seeds))}, in that order):", "",
+                  seeds_table(results, labels, list(c.objects), c.seeds, c.dampings), "", f"![Figure 2]({fig.name})"]
         curves = training_curves(table, c, out)
         if curves is not None:
             lines += ["", f"![training curves]({curves.name})"]

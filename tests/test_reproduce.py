@@ -144,6 +144,7 @@ def test_tables_only_writes_what_is_done_and_names_what_is_not(tmp_path):
     [path] = reproduce(["main"], c, tmp_path, progress=False, run=False)
     table = path.read_text()
     assert "| pica | x1 | 0.75±0.25 / 0.75±0.25" in table  # seeds 0 and 1 of object a
+    assert "| pica | x4 | stoch | 1.00, 0.50 | - |" in table  # and each seed's own value beside the mean
     assert "| - |" in table  # object b has nothing yet
     assert "b/pica (seed 0,1)" in table and "a/pica" not in table.split("**Partial**")[1].split("\n")[0]
     assert not list(tmp_path.glob("runs/*/*/checkpoints"))  # nothing trained
