@@ -15,7 +15,7 @@ from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import track
 from dragmesh2_jax.evaluation.protocol import SELECTION
-from dragmesh2_jax.evaluation.rollout import rollout, trace
+from dragmesh2_jax.evaluation.rollout import rollout
 from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.ppo.train import epoch_jit, epoch_runs, init_jit, init_runs, make_train, policy_params, seed_keys
 from dragmesh2_jax.runs.build import load_task
@@ -25,7 +25,7 @@ from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.trajectory.generator import generate
 from tests.conftest import REAL_OBJECTS, require_warp, tiny_program, tiny_spec
-from tests.task.conftest import assert_bounded_divergence
+from tests.task.conftest import assert_bounded_divergence, expert_trace
 from tests.task.test_contact_load import forces
 
 pytestmark = pytest.mark.xdist_group("warp")
@@ -47,12 +47,9 @@ def test_tracking_verdicts_agree_with_the_c_engine(gapartnet_dir, real_objects, 
     """The expert drag from the exact start at x1/x2/x4, each episode to its end: opened (or not) on Warp where it is
     on the C engine, its first second within MJX-JAX's bounds of the C engine's (tests/task/test_tracking.py)."""
     traj = generate(real_objects[oid])
-    traces = {}
-    for engine, task in (("mujoco", load_task(str(gapartnet_dir / oid), traj, backend="mujoco")),
-                         ("warp", _warp_task(str(gapartnet_dir / oid), traj))):
-        c = tracking_controller(task)
-        traces[engine] = trace(rollout(task, c.make_policy(True), c.params, DAMPINGS, controls=c.controls,
-                                       steps=task.config.episode_length, key=c.key))
+    traces = {engine: expert_trace(task, task.config.episode_length)
+              for engine, task in (("mujoco", load_task(str(gapartnet_dir / oid), traj, backend="mujoco")),
+                                   ("warp", _warp_task(str(gapartnet_dir / oid), traj)))}
     verdicts = {b: list(t["success"]) for b, t in traces.items()}
     assert verdicts["warp"] == verdicts["mujoco"] and verdicts["warp"][0]
     assert_bounded_divergence(traces, real_objects[oid].target.joint.is_revolute, engine="warp")

@@ -38,16 +38,18 @@ def tracking_traces(tracking_tasks):
 
     def get(oid):
         if oid not in cache:
-            out = {}
-            for b, t in tracking_tasks(oid).items():
-                c = tracking_controller(t)
-                steps = t.config.episode_length if oid == WHOLE_EPISODE else PARITY_STEPS
-                out[b] = trace(rollout(t, c.make_policy(True), c.params, [1.0, 2.0, 4.0], controls=c.controls,
-                                       steps=steps, key=c.key))
-            cache[oid] = out
+            cache[oid] = {b: expert_trace(t, t.config.episode_length if oid == WHOLE_EPISODE else PARITY_STEPS)
+                          for b, t in tracking_tasks(oid).items()}
         return cache[oid]
 
     return get
+
+
+def expert_trace(task, steps: int) -> dict:
+    """The tracking baseline from the exact start at x1/x2/x4 for ``steps`` control steps (``rollout.trace``)."""
+    c = tracking_controller(task)
+    return trace(rollout(task, c.make_policy(True), c.params, [1.0, 2.0, 4.0], controls=c.controls, steps=steps,
+                         key=c.key))
 
 
 def assert_bounded_divergence(traces, revolute: bool, engine: str = "mjx") -> None:
