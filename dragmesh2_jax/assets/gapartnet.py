@@ -463,6 +463,30 @@ def protrusion(part: Part, point: np.ndarray) -> np.ndarray:
     return dirs[k] * np.sign(u[k] if u[k] != 0 else 1.0)
 
 
+def graspable_box(box: np.ndarray, part: Part, normal: np.ndarray) -> np.ndarray:
+    """The handle box ``box`` cut at the part's front face when it sticks out of both faces of the part (a door's
+    double-sided knob, annotated as one box through the panel): the hand can only pull on the front side, the one
+    the part moves towards. Any other box is returned as it is.
+
+    The box is cut along its edge most aligned with ``normal``, so the result keeps GAPartNet's corner order."""
+    edges, _ = _box_axes(part.bbox)
+    half = 0.5 * np.abs(edges @ normal).max()  # the part's half thickness along the front normal
+    s = (box - part.centre) @ normal
+    if not (s.min() < -half and s.max() > half):
+        return box
+    h_edges, _ = _box_axes(box)
+    k = int(np.argmax(np.abs(h_edges @ normal) / np.maximum(np.linalg.norm(h_edges, axis=1), 1e-12)))
+    e = h_edges[k]
+    # the box is c0 + a e1 + b e3 + c e4 over [0, 1]^3; along e, keep the parameters in front of the face
+    t_face = (half - s[0]) / (e @ normal)
+    lo, hi = (t_face, 1.0) if e @ normal > 0 else (0.0, t_face)
+    c0 = box[0] + lo * e
+    scaled = h_edges.copy()
+    scaled[k] = (hi - lo) * e
+    e1, e3, e4 = scaled
+    return np.stack([c0, c0 + e1, c0 + e1 + e3, c0 + e3, c0 + e4, c0 + e4 + e1, c0 + e4 + e1 + e3, c0 + e4 + e3])
+
+
 def handle_frame(box: np.ndarray, normal_hint: np.ndarray, source: str, link: str | None,
                  thickness_override: float | None = None) -> HandleFrame:
     """Decompose an 8-corner box into (centre, long, normal, short, thickness). The normal is the box edge
@@ -511,7 +535,8 @@ def select_target(parts: list[Part], joints: tuple[Joint, ...], joint_name: str 
     pool = own or handles
     if pool:
         h = min(pool, key=lambda h: float(np.linalg.norm(h.centre - face)))
-        frame = handle_frame(h.bbox, protrusion(part, h.centre), "handle", h.link)
+        box = graspable_box(h.bbox, part, normal)
+        frame = handle_frame(box, protrusion(part, box.mean(axis=0)), "handle", h.link)
     else:
         frame = handle_frame(part.bbox, normal, "front_face", part.link, thickness_override=0.01)
         frame = HandleFrame(face, frame.long_axis, frame.normal, frame.short_axis, frame.thickness, frame.width,

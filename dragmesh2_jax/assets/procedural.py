@@ -29,7 +29,10 @@ CATEGORIES = {
     "trash_can": ("TrashCan", "lid"),
     "table": ("Table", "drawer"),
     "door": ("Door", "side_door"),  # a frame, a tall hinged panel and a round knob
+    "double_knob_door": ("Door", "side_door"),  # the same with a knob on each face, annotated as one box
 }
+#: Categories built as a door in a frame (not a cabinet shell), with a round knob.
+_DOORS = ("door", "double_knob_door")
 
 # PartNet-Mobility's root joint: rpy (pi/2, 0, -pi/2) maps y-up mesh coordinates to the z-up base frame.
 _ROOT_RPY = (np.pi / 2, 0.0, -np.pi / 2)
@@ -100,15 +103,22 @@ def _handle(centre, long_axis, length, standoff, bar=0.025):
     return [bar_box, *posts], bbox
 
 
-def _knob(centre, standoff, radius, cap=0.02):
+def _knob(centre, standoff, radius, back: float | None = None, cap=0.02):
     """A round knob: a stem ``standoff`` out along -x from the surface at ``centre[0]`` and a square cap of half
-    size ``radius`` (box meshes). Returns the boxes and the GAPartNet bbox of the knob."""
+    size ``radius`` (box meshes). With ``back`` (the x of the panel's other face) a second knob mirrors it there,
+    and the one bbox spans both knobs and the panel, as GAPartNet annotates a door's double-sided knob.
+    Returns the boxes and the GAPartNet bbox."""
     c = np.asarray(centre, float)
     stem = _box([c[0] - (standoff - cap) / 2, c[1], c[2]], [(standoff - cap) / 2, radius / 3, radius / 3])
     cap_box = _box([c[0] - standoff + cap / 2, c[1], c[2]], [cap / 2, radius, radius])
-    bbox = gapartnet_corners([c[0] - standoff / 2, c[1], c[2]], [0, 0, 1.0], [-1.0, 0, 0], 2 * radius, standoff,
-                             2 * radius)
-    return [stem, cap_box], bbox
+    boxes, lo, hi = [stem, cap_box], c[0] - standoff, c[0]
+    if back is not None:
+        mirror = c[0] + back  # x -> mirror - x maps the front face onto the back face
+        boxes += [_Box(np.array([mirror - b.hi[0], *b.lo[1:]]), np.array([mirror - b.lo[0], *b.hi[1:]]))
+                  for b in (stem, cap_box)]
+        hi = back + standoff
+    bbox = gapartnet_corners([(lo + hi) / 2, c[1], c[2]], [0, 0, 1.0], [-1.0, 0, 0], 2 * radius, hi - lo, 2 * radius)
+    return boxes, bbox
 
 
 def _frame(W, D, H, t) -> list[_Box]:
@@ -148,14 +158,14 @@ def make_object(category: str, seed: int, hinge_side: str | None = None) -> dict
         "oven": (u(0.8, 1.0), u(0.8, 0.9), u(0.8, 1.0)),
         "trash_can": (u(0.6, 0.8), u(0.6, 0.8), u(0.9, 1.2)),
         "door": (u(0.8, 1.0), u(0.10, 0.15), u(1.9, 2.2)),
-    }[category]
+    }["door" if category in _DOORS else category]  # one draw per entry: a new entry would change every seed
     W, D, H = dims
     hinge_side = hinge_side or ("left" if rng.uniform() < 0.5 else "right")
     standoff, bar = u(0.06, 0.09), u(0.022, 0.03)
     links: list[_LinkSpec] = []
     joints: list[dict] = []
     parts: list[dict] = []
-    body_boxes = _frame(W, D, H, t) if category == "door" else _shell(W, D, H, t, open_top=(kind == "lid"))
+    body_boxes = _frame(W, D, H, t) if category in _DOORS else _shell(W, D, H, t, open_top=(kind == "lid"))
     body = _LinkSpec("link_body", body_boxes, ("heavy", "body"), None)
 
     if kind == "drawer":
@@ -214,9 +224,10 @@ def make_object(category: str, seed: int, hinge_side: str | None = None) -> dict
         parts.append({"link": "link_door", "category": cat, "bbox": door_bbox})
         joints.append({"name": "joint_door", "type": "revolute", "child": "link_door", "parent": "link_body",
                        "pivot": pivot, "axis": axis, "limit": [0.0, round(float(np.radians(u(95, 120))), 4)]})
-        if category == "door":  # a round knob near the free edge, at about a third of the height from the floor
+        if category in _DOORS:  # a round knob near the free edge, at about a third of the height from the floor
             h_centre = [-D / 2, h_centre[1], -H / 6]
-            hboxes, hbbox = _knob(h_centre, standoff, u(0.03, 0.04))
+            back = -D / 2 + t if category == "double_knob_door" else None
+            hboxes, hbbox = _knob(h_centre, standoff, u(0.03, 0.04), back)
             hcat = "round_fixed_handle"
         else:
             hboxes, hbbox = _handle(h_centre, h_long, h_len, standoff, bar)

@@ -107,3 +107,32 @@ def test_a_door_with_a_round_knob_loads_and_its_expert_drag_opens_it(tmp_path):
     assert task.scene.stats["collision_pieces"] >= 2  # the panel and the knob
     assert task.traj.header["quality"]["passed"]
     assert track(task, [1.0])[0]["success_rate"] == 1.0
+
+
+def test_a_double_sided_knob_is_grasped_on_the_front_face(tmp_path):
+    """A door whose knob has a twin on the back face, annotated (as GAPartNet does) as one box through the panel:
+    the box's long axis runs through the door, yet the handle frame is the front knob's, the same as the one-sided
+    door of the same seed, and both knobs collide."""
+    from dragmesh2_jax.scene import build_scene
+
+    one = load_gapartnet(procedural.write_object(procedural.make_object("door", 4), tmp_path / "one", "one"))
+    two = load_gapartnet(procedural.write_object(procedural.make_object("double_knob_door", 4), tmp_path / "two",
+                                                 "two"))
+    box = next(p.bbox for p in two.parts if p.link == "link_handle")
+    panel = two.target.part.bbox
+    assert box[:, 0].min() < panel[:, 0].min() and box[:, 0].max() > panel[:, 0].max()  # through the panel
+    h1, h2 = one.target.handle, two.target.handle
+    for field in ("centre", "long_axis", "normal", "short_axis"):
+        np.testing.assert_allclose(getattr(h2, field), getattr(h1, field), atol=1e-6)
+    assert (h2.thickness, h2.width, h2.length) == pytest.approx((h1.thickness, h1.width, h1.length))
+    assert h2.normal @ [-1.0, 0, 0] > 0.99  # out of the front face, where the door swings to
+    s1, s2 = build_scene(one).stats, build_scene(two).stats
+    assert s2["collision_pieces"] == s1["collision_pieces"] + 2  # the back knob's stem and cap collide too
+
+
+def test_a_handle_on_one_face_is_not_cut():
+    from dragmesh2_jax.assets.gapartnet import graspable_box
+
+    obj = load_gapartnet(procedural.default_object())
+    h = next(p for p in obj.parts if p.link == obj.target.handle.link)
+    np.testing.assert_array_equal(graspable_box(h.bbox, obj.target.part, obj.target.front_normal), h.bbox)
