@@ -36,7 +36,7 @@ from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.finetune import FINETUNES
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
-from dragmesh2_jax.reproduce import TABLES, ReproduceConfig, reproduce
+from dragmesh2_jax.reproduce import GENERALIST_HOLDOUT, GENERALIST_OBJECTS, TABLES, ReproduceConfig, reproduce
 from dragmesh2_jax.runs.commands import (
     dataset_objects,
     describe_object,
@@ -318,7 +318,8 @@ def cmd_reproduce(args) -> int:
     config = ReproduceConfig(objects=tuple(args.objects or [str(procedural.default_object())]), seeds=tuple(seeds),
                              epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend,
                              methods=tuple(args.methods.split(",")) if args.methods else None,
-                             dampings=tuple(_dampings(args.damping)))
+                             dampings=tuple(_dampings(args.damping)), train_objects=args.train_objects,
+                             dataset=args.dataset, holdout=args.holdout)
     for path in reproduce(args.tables, config, args.out, progress=not args.quiet, run=not args.tables_only):
         print(path.read_text())
         _err(f"table: {path}")
@@ -577,6 +578,11 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--episodes", type=int, default=PAPER.episodes, help="episodes per cell")
     prp.add_argument("--damping", default=_csv(PAPER.dampings), help="evaluation damping multipliers (the paper's "
                                                                     "by default; 8 adds an OOD column)")
+    prp.add_argument("--train-objects", type=int, default=GENERALIST_OBJECTS,
+                     help="generalist: procedural training objects in the paper's Table 1 mix (built into --out)")
+    prp.add_argument("--dataset", help="generalist: train on this dataset folder (dataset build) instead")
+    prp.add_argument("--holdout", type=int, default=GENERALIST_HOLDOUT,
+                     help="generalist: training objects held aside for its best_robust selection")
     prp.add_argument("--out", default="out/reproduce")
     prp.add_argument("--backend", default="auto")
     prp.add_argument("--quiet", action="store_true")

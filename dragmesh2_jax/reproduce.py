@@ -15,6 +15,11 @@ Tables (the paper's numbering):
   continued      Table 6: the Both fine-tune continued for 200 more epochs, evaluated at 250, 300 and 400.
   damping-range  Table 7: the Both fine-tune and Both + a damping range ([1, 4] for 25 epochs; [1, 2.5] and
                  [2, 4], which the paper mentions but does not list).
+  generalist     Beyond the paper: one policy over a dataset of training objects (by default procedural ones in
+                 the paper's Table 1 mix), evaluated zero-shot on the objects (never trained on) and fine-tuned
+                 onto each for 20 epochs, against a specialist per object. The generalist trains for as many env
+                 steps as the specialists together (epochs x objects); best_robust is chosen on held-aside
+                 training objects, never on the evaluated ones.
 Epoch counts are the paper's at ``epochs=150`` and scale with ``epochs`` (a tiny preset keeps the shape).
 Main and ablation cells evaluate each run's ``best_robust`` checkpoint (selected by robustness during
 training); the appendix tables evaluate the checkpoint at the named epoch. The diagnostic object is the first.
@@ -48,11 +53,12 @@ from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.policies.methods import METHODS, RECOMMENDED
 from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
-from dragmesh2_jax.runs.build import load_task
-from dragmesh2_jax.runs.commands import baseline_controllers, finetune_run, load_run
+from dragmesh2_jax.runs.build import load_task, task_of
+from dragmesh2_jax.runs.commands import baseline_controllers, dataset_objects, finetune_run, load_run
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.runs.spec import method_spec
+from dragmesh2_jax.trajectory.dataset import build_dataset
 
 PAPER_BASE_EPOCHS = 150  # paper Table 11
 MAIN_METHODS = ("state_only", "flat_history", "gru", "transformer", "pica")  # paper Table 2, learned rows
@@ -62,7 +68,11 @@ OOD_FINETUNES = ("aram", "reconfig", "both")  # paper Table 5 (50 epochs each fr
 FINETUNE_EPOCHS = 50  # paper App. B.5
 CONTINUED = (250, 300, 400)  # paper Table 6: the Both fine-tune (200 epochs) continued
 DAMPING_RANGES = (("damp_1_4", 25), ("damp_1_2.5", 25), ("damp_2_4", 25))  # paper Table 7 (+ the two it mentions)
-TABLES = ("main", "ablation", "train-length", "ood", "continued", "damping-range")
+GENERALIST_FINETUNE_EPOCHS = 20  # the multi-object policy fine-tuned onto each object
+GENERALIST_OBJECTS = 32  # procedural training objects of the generalist (Table 1 mix) when no dataset is given
+GENERALIST_HOLDOUT = 2  # of them, held aside for its best_robust selection
+GENERALIST_OBJECT_SEED = 1000  # first seed of those procedural objects (the packaged ones use seeds 0 and 213)
+TABLES = ("main", "ablation", "train-length", "ood", "continued", "damping-range", "generalist")
 
 #: The paper's seven benchmark objects (GAPartNet ids), in its tables' order.
 PAPER_OBJECTS = ("12583", "45261", "45661", "45936", "46440", "48513", "7310")
@@ -177,6 +187,9 @@ class ReproduceConfig:
     methods: tuple[str, ...] | None = None  # the rows of the main and ablation tables; None: the paper's
     dampings: tuple[float, ...] = PAPER_DAMPINGS  # the evaluation cells (x8 beyond the paper: an OOD column)
     video_every: int = VIDEO_EVERY  # a video per method and object (first seed), a frame every this many steps; 0: none
+    train_objects: int = GENERALIST_OBJECTS  # generalist: procedural training objects (a dataset built in out)
+    dataset: str | None = None  # generalist: a dataset folder (dataset build) to train on instead
+    holdout: int = GENERALIST_HOLDOUT  # generalist: training objects held aside for best_robust
 
     def __post_init__(self):
         if not self.objects:
@@ -194,6 +207,9 @@ class ReproduceConfig:
             raise DragMeshError("epochs, episodes and num_envs must be >= 1")
         if self.video_every < 0:
             raise DragMeshError(f"video_every must be >= 0 (0: no videos), got {self.video_every}")
+        if self.dataset is None and not 0 <= self.holdout < self.train_objects:
+            raise DragMeshError(f"the generalist needs --train-objects > --holdout >= 0, got {self.train_objects} "
+                                f"and {self.holdout}")
 
     @property
     def protocol(self) -> EvalProtocol:
@@ -205,6 +221,11 @@ class ReproduceConfig:
         """How a controller is evaluated (deterministic: det only, as the paper)."""
         return dataclasses.replace(self.protocol, modes=("det",))
 
+    @property
+    def generalist_epochs(self) -> int:
+        """The generalist's budget: as many env steps as the specialists of every object together."""
+        return self.epochs * len(self.objects)
+
     def scaled(self, paper_epochs: int) -> int:
         """The paper's epoch count at this budget (``paper_epochs`` at 150 base epochs)."""
         return max(1, round(paper_epochs * self.epochs / PAPER_BASE_EPOCHS))
@@ -215,7 +236,8 @@ class ReproduceConfig:
 class Run:
     """A training run folder: a base method, or a fine-tune ``recipe`` of ``parent`` (from its final
     checkpoint, which is at ``parent.epochs``). A run reaches ``epochs`` by resuming its folder, so one folder
-    can be trained stage by stage."""
+    can be trained stage by stage. A ``generalist`` run trains over the dataset's objects (``object`` is then the
+    dataset); its fine-tunes go onto their own ``object``."""
 
     object: str
     seed: int
@@ -223,13 +245,17 @@ class Run:
     method: str | None = None
     parent: Run | None = None
     recipe: str | None = None
+    generalist: bool = False
 
     @property
     def name(self) -> str:
-        return self.method if self.parent is None else f"{self.parent.name}+{self.recipe}"
+        if self.parent is not None:
+            return f"{self.parent.name}+{self.recipe}"
+        return f"generalist_{self.method}" if self.generalist else self.method
 
     def folder(self, out: Path) -> RunDir:
-        return RunDir(out / "runs" / Path(self.object).name / f"{self.name}_s{self.seed}")
+        group = "generalist" if self.generalist else Path(self.object).name
+        return RunDir(out / "runs" / group / f"{self.name}_s{self.seed}")
 
 
 @dataclass(frozen=True)
@@ -242,6 +268,11 @@ class Eval:
     checkpoint: str = "best_robust"
     controller: str | None = None
     seed: int = 0
+
+    @property
+    def zero_shot(self) -> bool:
+        """An evaluation of a generalist on an object it did not train on."""
+        return self.run is not None and self.run.generalist
 
     @property
     def label(self) -> str:
@@ -258,7 +289,13 @@ class Eval:
         if self.run is None:
             name = f"{self.controller}__{c.controller_protocol.name}.json"
             return out / "controllers" / Path(self.object).name / name
-        return self.run.folder(out).evaluation_path(self.checkpoint_path(out), c.protocol)
+        return self.run.folder(out).evaluation_path(self.checkpoint_path(out), c.protocol,
+                                                    on=Path(self.object).name if self.zero_shot else None)
+
+
+def generalist_methods(c: ReproduceConfig) -> tuple[str, ...]:
+    """The generalist table's methods: ``methods``, else the project's recipe."""
+    return c.methods or (RECOMMENDED,)
 
 
 def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
@@ -277,6 +314,18 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
                 for s in c.seeds:
                     r = Run(obj, s, c.epochs, method=m)
                     steps += [r, Eval(obj, r, seed=s)]
+        return steps
+    if table == "generalist":
+        for m in generalist_methods(c):
+            for s in c.seeds:
+                general = Run(c.dataset or "dataset", s, c.generalist_epochs, method=m, generalist=True)
+                steps += [general]
+                for obj in c.objects:
+                    special = Run(obj, s, c.epochs, method=m)
+                    tuned = Run(obj, s, general.epochs + GENERALIST_FINETUNE_EPOCHS, parent=general,
+                                recipe="continued")
+                    steps += [Eval(obj, general, seed=s), Eval(obj, general, "final", seed=s), special,
+                              Eval(obj, special, seed=s), tuned, Eval(obj, tuned, "final", seed=s)]
         return steps
     obj = c.objects[0]
 
@@ -323,7 +372,12 @@ def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
     # main/ablation evaluate a base run's best_robust checkpoint; the appendix tables evaluate named epochs
     selection = Selection() if run.parent is None else Selection(every=0)
     kwargs = {"save_every": save_every, "selection": selection, "progress": False}
-    if run.parent is None:
+    if run.generalist:
+        objects, trajectories = dataset_objects(_dataset(c, out))
+        spec = method_spec(run.method, objects, {"epochs": run.epochs, "num_envs": c.num_envs, "seed": run.seed},
+                           backend=c.backend, holdout=c.holdout)
+        start_or_resume(spec, [folder], trajectory=trajectories, epochs=run.epochs, **kwargs)
+    elif run.parent is None:
         spec = method_spec(run.method, run.object, {"epochs": run.epochs, "num_envs": c.num_envs, "seed": run.seed},
                            backend=c.backend)
         start_or_resume(spec, [folder], epochs=run.epochs, **kwargs)  # new, interrupted or extended
@@ -334,7 +388,17 @@ def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
             shutil.rmtree(folder.path)  # stopped before its first checkpoint: nothing to resume from
         parent = run.parent.folder(out).checkpoint(epoch_name(run.parent.epochs))
         finetune_run(str(parent), run.recipe, str(folder.path), None if c.backend == "auto" else c.backend,
-                     epochs=run.epochs - run.parent.epochs, **kwargs)
+                     epochs=run.epochs - run.parent.epochs, object_dir=run.object if run.parent.generalist else None,
+                     **kwargs)
+
+
+def _dataset(c: ReproduceConfig, out: Path) -> Path:
+    """The generalist's dataset: ``c.dataset``, else ``c.train_objects`` procedural objects built into ``out``
+    (resumable: objects already there are kept)."""
+    if c.dataset is not None:
+        return Path(c.dataset)
+    build_dataset([], out / "dataset", progress=False, procedural=c.train_objects, seed=GENERALIST_OBJECT_SEED)
+    return out / "dataset"
 
 
 def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
@@ -351,12 +415,15 @@ def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
                             "evaluation of a stage runs right after it)")
     program, ts, _, ck = load_run(ev.checkpoint_path(out), c.backend)
     controller = program.controller(ts)
-    result = evaluate(c.protocol.task(program.task), controller, c.protocol)
+    task = task_of(ev.object, None, program.task.config, program.task.scene.config) if ev.zero_shot \
+        else program.task
+    result = evaluate(c.protocol.task(task), controller, c.protocol)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=ev.run.epochs, label=ev.label, seed=ev.seed,
-                  object=Path(ev.object).name)
-    folder.write_evaluation(ck, c.protocol, result, markdown_table(result))
+                  object=Path(ev.object).name, zero_shot=ev.zero_shot)
+    folder.write_evaluation(ck, c.protocol, result, markdown_table(result),
+                            on=Path(ev.object).name if ev.zero_shot else None)
     if c.video_every and ev.seed == c.seeds[0]:  # one video per method and object: the first seed's policy
-        render_policy_video(EvalProtocol(starts=None).task(program.task), controller, list(c.dampings),
+        render_policy_video(EvalProtocol(starts=None).task(task), controller, list(c.dampings),
                             video_path(out, ev), every=c.video_every)
     return result
 
@@ -597,12 +664,31 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
         if videos:
             lines += ["", "Videos (first seed, deterministic, exact start, dampings side by side): " +
                       ", ".join(f"[{v.stem}](videos/{v.name})" for v in videos)]
+    elif table == "generalist":
+        labels = [s.label for s in plan(table, c) if isinstance(s, Eval) and s.seed == c.seeds[0]
+                  and s.object == c.objects[0]]
+        lines += [f"Training objects: {_training_objects(c)}; the generalist trains {c.generalist_epochs} epochs (the "
+                  f"specialists' {c.epochs} x {len(c.objects)} objects), best_robust chosen on {c.holdout} held-aside "
+                  f"training objects; fine-tunes: {GENERALIST_FINETUNE_EPOCHS} epochs on the object from the "
+                  "generalist's final checkpoint.",
+                  "Rows: `M` the specialist (best_robust), `generalist_M` zero-shot (best_robust), "
+                  "`generalist_M@E` zero-shot (final), `generalist_M+continued@E` fine-tuned (final).",
+                  "Cells: det / stoch success, mean±SE over seeds.", "",
+                  comparison_table(results, labels, list(c.objects), c.dampings), "",
+                  f"Every seed's success (seeds {', '.join(map(str, c.seeds))}, in that order):", "",
+                  seeds_table(results, labels, list(c.objects), c.seeds, c.dampings)]
     else:
         rows, columns = _diagnostic_layout(table, c)
         lines += [f"Object {Path(c.objects[0]).name} (the paper's diagnostic object is 45936); mean±SE over seeds.",
                   "", diagnostic_table(results, rows, columns)]
     atomic_write_json(out / f"{table}.json", {"table": table, "config": dataclasses.asdict(c), "results": results})
     return atomic_write_text(out / f"{table}.md", "\n".join(lines) + "\n")
+
+
+def _training_objects(c: ReproduceConfig) -> str:
+    if c.dataset is not None:
+        return f"the dataset {c.dataset}"
+    return f"{c.train_objects} procedural objects in the paper's Table 1 mix (seeds from {GENERALIST_OBJECT_SEED})"
 
 
 def _labels(table: str, c: ReproduceConfig) -> set[str]:

@@ -46,6 +46,30 @@ def test_plans_follow_the_paper():
         ReproduceConfig(objects=("a",), methods=("pica_typo",))
 
 
+def test_the_generalist_plan_gives_one_policy_the_specialists_budget():
+    """One policy per seed over the training objects, for as many epochs as the specialists of every object
+    together; evaluated zero-shot on each object (best_robust and final, in files of their own), fine-tuned onto
+    each for 20 epochs, beside each object's specialist. Without --methods it is the project's recipe."""
+    c = ReproduceConfig(objects=("a", "b"), seeds=(0, 1, 2), epochs=150)
+    steps = plan("generalist", c)
+    runs = [s for s in steps if isinstance(s, Run)]
+    general = [r for r in runs if r.generalist]
+    assert len(general) == 3 and {(r.method, r.epochs) for r in general} == {("hold", 300)}
+    tuned = {(r.object, r.epochs, r.recipe) for r in runs if r.parent is not None}
+    assert tuned == {("a", 320, "continued"), ("b", 320, "continued")}
+    assert {(r.object, r.epochs) for r in runs if not r.generalist and r.parent is None} == {("a", 150), ("b", 150)}
+    evals = [s for s in steps if isinstance(s, Eval)]
+    assert {s.label for s in evals} == {"hold", "generalist_hold", "generalist_hold@300",
+                                        "generalist_hold+continued@320"}
+    zero = [s for s in evals if s.zero_shot]
+    assert len(zero) == 3 * 2 * 2  # seeds x objects x (best_robust, final)
+    out = Path("rep")
+    assert len({s.path(out, c) for s in zero}) == len(zero)  # one file each: none overwrites another
+    assert all(s.path(out, c).name.endswith(f"__on-{s.object}.json") for s in zero)
+    with pytest.raises(DragMeshError, match="holdout"):
+        ReproduceConfig(objects=("a",), train_objects=2, holdout=2)
+
+
 class FakeSteps:
     """Stand-ins for training and evaluation that leave what the real ones leave (a run's log and checkpoints, an
     evaluation's result), so the plan, the skipping of done steps and the tables run without computing."""
@@ -100,6 +124,7 @@ def test_every_table_runs_its_plan_and_an_interrupted_reproduction_resumes(tmp_p
     assert {r["label"] for r in res} == {"gla_only", "pica_flat", "pica"}
     assert "pica+both+continued" in (out / "continued.md").read_text()
     assert "| pica+continued (7 ep) |" in (out / "train-length.md").read_text()  # 500 epochs at 2/150 scale
+    assert "| generalist_hold+continued@22 | x4 |" in (out / "generalist.md").read_text()
     # a larger budget: the runs are trained on and evaluated again, the controllers' evaluations are kept
     bigger = dataclasses.replace(TINY, epochs=3)
     n_train, n_eval = len(fake.trained), len(fake.evaluated)
