@@ -319,7 +319,7 @@ def cmd_reproduce(args) -> int:
                              epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend,
                              methods=tuple(args.methods.split(",")) if args.methods else None,
                              dampings=tuple(_dampings(args.damping)), train_objects=args.train_objects,
-                             dataset=args.dataset, holdout=args.holdout)
+                             dataset=args.dataset, holdout=args.holdout, video_every=args.video_every)
     for path in reproduce(args.tables, config, args.out, progress=not args.quiet, run=not args.tables_only):
         print(path.read_text())
         _err(f"table: {path}")
@@ -583,6 +583,8 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--dataset", help="generalist: train on this dataset folder (dataset build) instead")
     prp.add_argument("--holdout", type=int, default=GENERALIST_HOLDOUT,
                      help="generalist: training objects held aside for its best_robust selection")
+    prp.add_argument("--video-every", type=int, default=VIDEO_EVERY,
+                     help="control steps between video frames of each method's video (0: no videos)")
     prp.add_argument("--out", default="out/reproduce")
     prp.add_argument("--backend", default="auto")
     prp.add_argument("--quiet", action="store_true")
