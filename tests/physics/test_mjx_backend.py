@@ -56,8 +56,8 @@ def test_tracking_verdicts_agree_with_the_c_engine(gapartnet_dir, real_objects, 
 
 
 def test_contact_sensors_agree_with_the_c_engine():
-    """Same start, zero actions, 10 control steps: the same tolerance as MJX-JAX's (tests/task/test_contact_load.py):
-    wrist force within 2 N + 15%, summed palm/phalanx normal force within 20% + 1 N."""
+    """Same start, zero actions, 10 control steps: MJX-JAX's tolerance (tests/task/conftest.assert_sensors_agree): wrist
+    force within 2 N + 15%, summed palm/phalanx normal force within 20% + 1 N."""
     c, w = (forces(t)[0] for t in (load_task(OBJ, None, backend="mujoco", force_obs=True),
                                    _warp_task(OBJ, force_obs=True)))
     fc, fw = np.linalg.norm(c[..., :3], axis=-1), np.linalg.norm(w[..., :3], axis=-1)

@@ -9,40 +9,21 @@ from dragmesh2_jax.trajectory.generator import generate
 
 #: Control steps the backend parity compares (1 s of the same PD targets from the same start).
 PARITY_STEPS = 60
-#: The object whose traces run a whole episode (one MJX compilation serves its parity and its verdicts).
+#: The object whose traces run a whole episode on MJX-JAX (one compilation serves its parity, its verdicts and its
+#: load sensors); every shared object's runs on MJX-Warp (tests/physics/test_mjx_backend.py).
 WHOLE_EPISODE = "45261"
-#: The revolute door whose first second is compared on MJX-JAX too.
-MJX_DOOR = "45780"
+#: Control steps whose load sensors are compared (the grasp before the pull builds up).
+SENSOR_STEPS = 10
 
 
 @pytest.fixture(scope="session")
-def tracking_tasks(gapartnet_dir):
-    """A real object's task on both backends from one generated trajectory, built once per object per session:
-    ``tracking_tasks(oid) -> {backend: task}``."""
-    cache = {}
-
-    def get(oid):
-        if oid not in cache:
-            traj = generate(load_gapartnet(gapartnet_dir / oid))
-            cache[oid] = {b: load_task(str(gapartnet_dir / oid), traj, backend=b) for b in ("mujoco", "mjx")}
-        return cache[oid]
-
-    return get
-
-
-@pytest.fixture(scope="session")
-def tracking_traces(tracking_tasks):
-    """The tracking baseline at x1/x2/x4 on both backends (``rollout.trace``): PARITY_STEPS steps, a whole episode
-    for WHOLE_EPISODE."""
-    cache = {}
-
-    def get(oid):
-        if oid not in cache:
-            cache[oid] = {b: expert_trace(t, t.config.episode_length if oid == WHOLE_EPISODE else PARITY_STEPS)
-                          for b, t in tracking_tasks(oid).items()}
-        return cache[oid]
-
-    return get
+def whole_episode_traces(gapartnet_dir):
+    """The tracking baseline at x1/x2/x4 on WHOLE_EPISODE, each episode to its end, on the C engine and MJX-JAX
+    from one generated trajectory (``rollout.trace``)."""
+    oid = str(gapartnet_dir / WHOLE_EPISODE)
+    traj = generate(load_gapartnet(oid))
+    return {b: expert_trace(t, t.config.episode_length)
+            for b in ("mujoco", "mjx") for t in [load_task(oid, traj, backend=b)]}
 
 
 def expert_trace(task, steps: int) -> dict:
@@ -50,6 +31,16 @@ def expert_trace(task, steps: int) -> dict:
     c = tracking_controller(task)
     return trace(rollout(task, c.make_policy(True), c.params, [1.0, 2.0, 4.0], controls=c.controls, steps=steps,
                          key=c.key))
+
+
+def assert_sensors_agree(traces, engine: str = "mjx") -> None:
+    """The load sensors over the first SENSOR_STEPS of the same drag: wrist force within 2 N + 15% and the summed
+    palm/phalanx normal force within 20% + 1 N (measured on 45261, MJX-JAX: 1.0 N and 11 N of ~60 N)."""
+    c, j = (traces[b]["force"][:SENSOR_STEPS] for b in ("mujoco", engine))
+    fc, fj = np.linalg.norm(c[..., :3], axis=-1), np.linalg.norm(j[..., :3], axis=-1)
+    assert np.all(np.abs(fc - fj) <= 2.0 + 0.15 * fc)
+    tc, tj = c[..., 6:].sum(-1), j[..., 6:].sum(-1)
+    assert np.all(np.abs(tc - tj) <= 0.2 * tc + 1.0) and tj.max() > 1.0  # the grasp touches the handle
 
 
 def assert_bounded_divergence(traces, revolute: bool, engine: str = "mjx") -> None:
