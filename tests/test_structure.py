@@ -2,7 +2,10 @@
 of each module, where a reader sees the real graph."""
 
 import ast
+import os
 from pathlib import Path
+
+import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "dragmesh2_jax"
 #: The data flow, bottom to top: a module imports only from its own floor or below.
@@ -91,3 +94,13 @@ def test_every_folder_of_the_package_is_a_regular_package():
     editable install and is missing from a wheel."""
     folders = {p.parent for p in PACKAGE.rglob("*.py")}
     assert [str(f) for f in sorted(folders) if not (f / "__init__.py").exists()] == []
+
+
+@pytest.mark.xdist_group("structure")
+def test_a_group_of_tests_stays_on_one_worker(request):
+    """Under ``--dist loadgroup`` (pyproject's addopts) a test marked ``xdist_group`` carries its group in its id, which
+    is how xdist keeps a module's trained-run fixtures on one worker (pytest 9.2 dropped the suffix: the modules'
+    runs were trained on both workers)."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        pytest.skip("not run by an xdist worker")
+    assert request.config.getoption("loadgroup") and request.node.nodeid.endswith("@structure")
