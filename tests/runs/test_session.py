@@ -15,6 +15,7 @@ from tensorboardX.proto import event_pb2
 from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.ppo.finetune import FINETUNES, get_finetune
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
+from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.commands import finetune_run, load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
@@ -101,20 +102,34 @@ def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
     assert program.task.config.reward.reconfig == ReconfigConfig()
 
 
-def test_the_same_scalars_go_to_weights_and_biases_offline(tmp_path):
-    """``--wandb PROJECT``: the run's TensorBoard scalars (training and robustness) logged to W&B too, here offline.
-    In its own process: W&B's service threads outlive ``finish()`` and must not share a worker with MuJoCo's."""
+def test_the_same_scalars_go_to_weights_and_biases_offline(tmp_path, monkeypatch):
+    """``--wandb PROJECT``: training hands the project to the run's scalar writer, which logs the TensorBoard scalars
+    (training and robustness) to W&B too, here offline. The writer runs on a trained run's rows in a process of its
+    own: W&B's service threads outlive ``finish()`` and must not share a worker with MuJoCo's."""
     require_package("wandb")
-    run = tmp_path / "run"
+    projects = []
+
+    class Recorder(session._Scalars):
+        def __init__(self, run, resumed_from, wandb_project):
+            projects.append(wandb_project)
+            super().__init__(run, resumed_from, None)
+
+    monkeypatch.setattr(session, "_Scalars", Recorder)
+    run = RunDir(tmp_path / "run")
+    start_or_resume(tiny_spec(epochs=4), [run], resume=False, selection=SELECT, progress=False,
+                    wandb="dragmesh2-test")  # the trained_run fixture's program: compiled already
+    assert projects == ["dragmesh2-test"]
     script = ("from dragmesh2_jax.runs.rundir import RunDir\n"
-              "from dragmesh2_jax.runs.session import start_or_resume\n"
-              "from tests.runs.test_session import SELECT\n"
-              "from tests.conftest import tiny_spec\n"
-              f"start_or_resume(tiny_spec(epochs=2), [RunDir({str(run)!r})], resume=False, selection=SELECT,\n"
-              "                progress=False, wandb='dragmesh2-test')\n")
+              "from dragmesh2_jax.runs.session import _Scalars\n"
+              f"run = RunDir({str(run.path)!r})\n"
+              "with _Scalars(run, None, 'dragmesh2-test') as board:\n"
+              "    for row in run.log_rows():\n"
+              "        board.write('train', row)\n"
+              "    for row in run.robust_rows():\n"
+              "        board.write('robust', row)\n")
     env = {**os.environ, "WANDB_MODE": "offline", "WANDB_SILENT": "true"}
     subprocess.run([sys.executable, "-c", script], env=env, cwd=REPO, check=True, timeout=WANDB_TIMEOUT_S)
-    (log,) = (run / "wandb").glob("offline-run-*/run-*.wandb")
+    (log,) = (run.path / "wandb").glob("offline-run-*/run-*.wandb")
     data = log.read_bytes()
     assert all(key.encode() in data for key in ("train/success", "train/loss", "robust/mean_success"))
     assert b"dragmesh2-test" in data and b"pica" in data  # the project, and the run record as its config
