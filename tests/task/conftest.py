@@ -9,21 +9,21 @@ from dragmesh2_jax.trajectory.generator import generate
 
 #: Control steps the backend parity compares (1 s of the same PD targets from the same start).
 PARITY_STEPS = 60
-#: The object whose traces run a whole episode on MJX-JAX (one compilation serves its parity, its verdicts and its
-#: load sensors); every shared object's runs on MJX-Warp (tests/physics/test_mjx_backend.py).
-WHOLE_EPISODE = "45261"
+#: The object MJX-JAX is compared on (one compilation serves its parity and its load sensors; its compile costs
+#: minutes per object on a CPU): every shared object runs the same checks, each episode to its end, on MJX-Warp
+#: (tests/physics/test_mjx_backend.py).
+MJX_JAX_OBJECT = "45261"
 #: Control steps whose load sensors are compared (the grasp before the pull builds up).
 SENSOR_STEPS = 10
 
 
 @pytest.fixture(scope="session")
-def whole_episode_traces(gapartnet_dir):
-    """The tracking baseline at x1/x2/x4 on WHOLE_EPISODE, each episode to its end, on the C engine and MJX-JAX
-    from one generated trajectory (``rollout.trace``)."""
-    oid = str(gapartnet_dir / WHOLE_EPISODE)
+def mjx_jax_traces(gapartnet_dir):
+    """The tracking baseline at x1/x2/x4 on MJX_JAX_OBJECT for PARITY_STEPS, on the C engine and MJX-JAX from one
+    generated trajectory (``rollout.trace``)."""
+    oid = str(gapartnet_dir / MJX_JAX_OBJECT)
     traj = generate(load_gapartnet(oid))
-    return {b: expert_trace(t, t.config.episode_length)
-            for b in ("mujoco", "mjx") for t in [load_task(oid, traj, backend=b)]}
+    return {b: expert_trace(load_task(oid, traj, backend=b), PARITY_STEPS) for b in ("mujoco", "mjx")}
 
 
 def expert_trace(task, steps: int) -> dict:
