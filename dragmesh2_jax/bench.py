@@ -16,7 +16,7 @@ import numpy as np
 from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.ppo.train import TrainProgram, epoch_jit, epoch_runs, init_jit, init_runs, run_mesh, seed_keys
-from dragmesh2_jax.runs.build import load_task, program_of
+from dragmesh2_jax.runs.build import load_task, mix_of, program_of
 from dragmesh2_jax.runs.spec import method_spec
 from dragmesh2_jax.task.env import PullTask, make_batched
 from dragmesh2_jax.task.wrappers import AutoReset
@@ -76,7 +76,8 @@ def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     return {"backend": task.backend.name, "engine": engine_name(task), "num_envs": num_envs, "steps": steps,
             "compile_s": round(compile_s, 3), "control_steps_per_s": round(ctrl, 1),
             "physics_steps_per_s": round(ctrl * task.substeps, 1), "wall_s": round(dt, 4),
-            "object": task.scene.obj.object_id, **buffers(task), **machine()}
+            "object": task.scene.obj.object_id, "objects": getattr(task, "num_objects", 1), **buffers(task),
+            **machine()}
 
 
 PAPER_EPOCHS = 150  # the paper's per-object budget: 150 epochs x 64 envs x 32 steps
@@ -152,16 +153,18 @@ def bench_soak(task: PullTask, dampings: list[float], num_envs: int, steps: int,
 
 
 # ------------------------------------------------------------------ sweeps behind ``dragmesh2 bench``
-def bench_env_sweep(object_dir: str | None, trajectory: str | None, backends: list[str], num_envs: list[int],
+def bench_env_sweep(objects: list[str] | None, trajectory: str | None, backends: list[str], num_envs: list[int],
                     steps: int, mjx_steps: int | None = None, impls: tuple[str, ...] = ("jax",),
                     report=None) -> list[dict]:
     """``bench_env`` for every engine (the C engine, and MJX in each of ``impls``) x batch size on one object
-    (default: the packaged drawer); MJX may take fewer steps (``mjx_steps``: it is slow on a CPU). ``report(row)``
-    sees each row as it is measured."""
+    (default: the packaged drawer), or on several mixed in one batch (each world steps one of them, as training over
+    several objects does); MJX may take fewer steps (``mjx_steps``: it is slow on a CPU). ``report(row)`` sees each
+    row as it is measured."""
     rows = []
     engines = [(b, i) for b in backends for i in (impls if b == "mjx" else ("jax",))]
+    objects = objects or [str(default_object())]
     for backend, impl in engines:
-        task = load_task(object_dir or str(default_object()), trajectory, backend, impl)
+        task = mix_of([load_task(o, trajectory if len(objects) == 1 else None, backend, impl) for o in objects])
         for n in num_envs:
             rows.append(bench_env(task, n, mjx_steps if backend == "mjx" and mjx_steps else steps))
             if report:

@@ -158,7 +158,8 @@ def _counts(text: str, what: str) -> list[int]:
 
 
 def cmd_bench(args) -> int:
-    rows = bench_env_sweep(args.object, args.trajectory, [b.strip() for b in args.backend.split(",")],
+    objects = args.object.split(",") if args.object else None
+    rows = bench_env_sweep(objects, args.trajectory, [b.strip() for b in args.backend.split(",")],
                            _counts(args.num_envs, "--num-envs"), args.steps, args.mjx_steps,
                            tuple(i.strip() for i in args.impl.split(",")), report=_print_env_row)
     if args.json:
@@ -450,7 +451,8 @@ def build_parser() -> argparse.ArgumentParser:
     pbe = sub.add_parser("bench", help="benchmarks")
     bsub = pbe.add_subparsers(dest="bench_cmd", required=True)
     pbenv = bsub.add_parser("env", help="physics steps/s of the task per backend and batch size")
-    pbenv.add_argument("--object", help="object folder (default: the packaged drawer)")
+    pbenv.add_argument("--object", help="object folder (default: the packaged drawer); several, comma-separated: one "
+                                        "batch mixing them (each world steps one), as training over several objects")
     pbenv.add_argument("--trajectory")
     pbenv.add_argument("--num-envs", default="1,16,64,256")
     pbenv.add_argument("--steps", type=int, default=50, help="control steps per timed run")

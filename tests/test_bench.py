@@ -9,6 +9,7 @@ import jax
 import jax.numpy as jnp
 import pytest
 
+from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.bench import PAPER_EPOCHS, bench_soak, bench_train, learning_regressions
 from tests.conftest import installed_command, require_warp, tiny_program
 
@@ -23,6 +24,16 @@ def test_bench_env_json(capsys):
         assert {"compile_s", "control_steps_per_s", "physics_steps_per_s", "backend", "cpu", "cores"} <= set(r)
         assert r["physics_steps_per_s"] == r["control_steps_per_s"] * 4 or abs(
             r["physics_steps_per_s"] - 4 * r["control_steps_per_s"]) < 1
+    assert {r["objects"] for r in rows} == {1}
+
+
+def test_bench_env_mixes_objects_in_one_batch(capsys):
+    """Several objects: one batch whose worlds step a drawer and a door, as training over several objects does."""
+    pair = ",".join(str(packaged_object(n)) for n in ("drawer_cabinet_0000", "door_cabinet_0000"))
+    assert dragmesh2(["bench", "env", "--backend", "mujoco", "--object", pair, "--num-envs", "4", "--steps", "3",
+                      "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
+    assert row["objects"] == 2 and row["num_envs"] == 4 and row["physics_steps_per_s"] > 0
 
 
 def test_bench_train_reports_compile_budget_and_a_seed_column():
