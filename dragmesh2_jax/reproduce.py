@@ -275,6 +275,11 @@ class Eval:
         return self.run is not None and self.run.generalist
 
     @property
+    def on(self) -> str | None:
+        """The object's name for a zero-shot evaluation (its file is keyed by it), else None."""
+        return Path(self.object).name if self.zero_shot else None
+
+    @property
     def label(self) -> str:
         """The row this evaluation fills: the controller or method, or ``run@epochs`` for a named epoch."""
         if self.run is None:
@@ -289,8 +294,7 @@ class Eval:
         if self.run is None:
             name = f"{self.controller}__{c.controller_protocol.name}.json"
             return out / "controllers" / Path(self.object).name / name
-        return self.run.folder(out).evaluation_path(self.checkpoint_path(out), c.protocol,
-                                                    on=Path(self.object).name if self.zero_shot else None)
+        return self.run.folder(out).evaluation_path(self.checkpoint_path(out), c.protocol, on=self.on)
 
 
 def generalist_methods(c: ReproduceConfig) -> tuple[str, ...]:
@@ -420,8 +424,7 @@ def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
     result = evaluate(c.protocol.task(task), controller, c.protocol)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=ev.run.epochs, label=ev.label, seed=ev.seed,
                   object=Path(ev.object).name, zero_shot=ev.zero_shot)
-    folder.write_evaluation(ck, c.protocol, result, markdown_table(result),
-                            on=Path(ev.object).name if ev.zero_shot else None)
+    folder.write_evaluation(ck, c.protocol, result, markdown_table(result), on=ev.on)
     if c.video_every and ev.seed == c.seeds[0]:  # one video per method and object: the first seed's policy
         render_policy_video(EvalProtocol(starts=None).task(task), controller, list(c.dampings),
                             video_path(out, ev), every=c.video_every)

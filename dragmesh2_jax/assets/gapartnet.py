@@ -447,10 +447,14 @@ def front_normal(part: Part, joint: Joint) -> np.ndarray:
     return dirs[k] * np.sign(dirs[k] @ move)
 
 
-def front_face_centre(part: Part, normal: np.ndarray) -> np.ndarray:
+def half_thickness(part: Part, normal: np.ndarray) -> float:
+    """Half the part box's extent along ``normal`` (its front face lies this far out of its centre)."""
     edges, _ = _box_axes(part.bbox)
-    half_extent = 0.5 * np.abs(edges @ normal).max()
-    return part.centre + normal * half_extent
+    return 0.5 * float(np.abs(edges @ normal).max())
+
+
+def front_face_centre(part: Part, normal: np.ndarray) -> np.ndarray:
+    return part.centre + normal * half_thickness(part, normal)
 
 
 def protrusion(part: Part, point: np.ndarray) -> np.ndarray:
@@ -469,8 +473,7 @@ def graspable_box(box: np.ndarray, part: Part, normal: np.ndarray) -> np.ndarray
     the part moves towards. Any other box is returned as it is.
 
     The box is cut along its edge most aligned with ``normal``, so the result keeps GAPartNet's corner order."""
-    edges, _ = _box_axes(part.bbox)
-    half = 0.5 * np.abs(edges @ normal).max()  # the part's half thickness along the front normal
+    half = half_thickness(part, normal)
     s = (box - part.centre) @ normal
     if not (s.min() < -half and s.max() > half):
         return box

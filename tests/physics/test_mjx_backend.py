@@ -25,7 +25,7 @@ from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.trajectory.generator import generate
 from tests.conftest import REAL_OBJECTS, require_warp, tiny_program, tiny_spec
-from tests.task.conftest import assert_bounded_divergence, expert_trace
+from tests.task.conftest import assert_bounded_divergence, assert_loads_agree, expert_trace
 from tests.task.test_contact_load import forces
 
 pytestmark = pytest.mark.xdist_group("warp")
@@ -56,14 +56,10 @@ def test_tracking_verdicts_agree_with_the_c_engine(gapartnet_dir, real_objects, 
 
 
 def test_contact_sensors_agree_with_the_c_engine():
-    """Same start, zero actions, 10 control steps: MJX-JAX's tolerance (tests/task/conftest.assert_sensors_agree): wrist
+    """Same start, zero actions, 10 control steps: MJX-JAX's tolerance (tests/task/conftest.assert_loads_agree): wrist
     force within 2 N + 15%, summed palm/phalanx normal force within 20% + 1 N."""
-    c, w = (forces(t)[0] for t in (load_task(OBJ, None, backend="mujoco", force_obs=True),
-                                   _warp_task(OBJ, force_obs=True)))
-    fc, fw = np.linalg.norm(c[..., :3], axis=-1), np.linalg.norm(w[..., :3], axis=-1)
-    assert np.all(np.abs(fc - fw) <= 2.0 + 0.15 * fc)
-    tc, tw = c[..., 6:].sum(-1), w[..., 6:].sum(-1)
-    assert np.all(np.abs(tc - tw) <= 0.2 * tc + 1.0) and tw.max() > 1.0
+    assert_loads_agree(*(forces(t)[0] for t in (load_task(OBJ, None, backend="mujoco", force_obs=True),
+                                                _warp_task(OBJ, force_obs=True))))
 
 
 def test_a_training_run_records_its_buffers(tmp_path):

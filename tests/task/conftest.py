@@ -34,9 +34,14 @@ def expert_trace(task, steps: int) -> dict:
 
 
 def assert_sensors_agree(traces, engine: str = "mjx") -> None:
-    """The load sensors over the first SENSOR_STEPS of the same drag: wrist force within 2 N + 15% and the summed
-    palm/phalanx normal force within 20% + 1 N (measured on 45261, MJX-JAX: 1.0 N and 11 N of ~60 N)."""
-    c, j = (traces[b]["force"][:SENSOR_STEPS] for b in ("mujoco", engine))
+    """The load sensors over the first SENSOR_STEPS of the same drag agree (``assert_loads_agree``; measured on
+    45261, MJX-JAX: 1.0 N and 11 N of ~60 N)."""
+    assert_loads_agree(*(traces[b]["force"][:SENSOR_STEPS] for b in ("mujoco", engine)))
+
+
+def assert_loads_agree(c: np.ndarray, j: np.ndarray) -> None:
+    """Load sensors of the C engine (``c``) and an MJX engine (``j``), [..., sensors]: wrist force within 2 N + 15%
+    and the summed palm/phalanx normal force within 20% + 1 N, the grasp touching the handle."""
     fc, fj = np.linalg.norm(c[..., :3], axis=-1), np.linalg.norm(j[..., :3], axis=-1)
     assert np.all(np.abs(fc - fj) <= 2.0 + 0.15 * fc)
     tc, tj = c[..., 6:].sum(-1), j[..., 6:].sum(-1)
