@@ -36,7 +36,14 @@ from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.finetune import FINETUNES
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
-from dragmesh2_jax.reproduce import GENERALIST_HOLDOUT, GENERALIST_OBJECTS, TABLES, ReproduceConfig, reproduce
+from dragmesh2_jax.reproduce import (
+    GENERALIST_HOLDOUT,
+    GENERALIST_OBJECTS,
+    SCALING_OBJECTS,
+    TABLES,
+    ReproduceConfig,
+    reproduce,
+)
 from dragmesh2_jax.runs.commands import (
     dataset_objects,
     describe_object,
@@ -320,7 +327,9 @@ def cmd_reproduce(args) -> int:
                              epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend,
                              methods=tuple(args.methods.split(",")) if args.methods else None,
                              dampings=tuple(_dampings(args.damping)), train_objects=args.train_objects,
-                             dataset=args.dataset, holdout=args.holdout, video_every=args.video_every)
+                             dataset=args.dataset, holdout=args.holdout, video_every=args.video_every,
+                             scaling=tuple(int(n) for n in parse_floats(args.scaling, "--scaling", minimum=1)),
+                             modes=tuple(_modes(args.mode)))
     for path in reproduce(args.tables, config, args.out, progress=not args.quiet, run=not args.tables_only):
         print(path.read_text())
         _err(f"table: {path}")
@@ -585,6 +594,9 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--dataset", help="generalist: train on this dataset folder (dataset build) instead")
     prp.add_argument("--holdout", type=int, default=GENERALIST_HOLDOUT,
                      help="generalist: training objects held aside for its best_robust selection")
+    prp.add_argument("--scaling", default=_csv(SCALING_OBJECTS),
+                     help="scaling: training-set sizes (nested procedural objects in the Table 1 mix)")
+    prp.add_argument("--mode", default=",".join(PAPER.modes), help="evaluation modes of trained runs (det, stoch)")
     prp.add_argument("--video-every", type=int, default=VIDEO_EVERY,
                      help="control steps between video frames of each method's video (0: no videos)")
     prp.add_argument("--out", default="out/reproduce")

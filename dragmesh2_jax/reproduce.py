@@ -20,6 +20,10 @@ Tables (the paper's numbering):
                  onto each for 20 epochs, against a specialist per object. The generalist trains for as many env
                  steps as the specialists together (epochs x objects); best_robust is chosen on held-aside
                  training objects, never on the evaluated ones.
+  scaling        Beyond the paper: success on the objects (never trained on) against the number of procedural
+                 training objects (1, 8, 32, 128, 277: nested subsets of one Table 1 mix) and against env steps:
+                 per size and seed one policy for the generalist's budget, its checkpoints at a third, two
+                 thirds and all of it evaluated zero-shot on each object (``scaling.png``).
 Epoch counts are the paper's at ``epochs=150`` and scale with ``epochs`` (a tiny preset keeps the shape).
 Main and ablation cells evaluate each run's ``best_robust`` checkpoint (selected by robustness during
 training); the appendix tables evaluate the checkpoint at the named epoch. The diagnostic object is the first.
@@ -44,6 +48,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from dragmesh2_jax.assets.procedural import table1_mix
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW
 from dragmesh2_jax.baselines.tracking import TRACKING
 from dragmesh2_jax.errors import DragMeshError
@@ -51,9 +56,10 @@ from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import MODES, PAPER_DAMPINGS, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.policies.methods import METHODS, RECOMMENDED
+from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
-from dragmesh2_jax.runs.build import load_task, task_of
+from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.commands import baseline_controllers, dataset_objects, finetune_run, load_run
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.session import Selection, start_or_resume
@@ -72,7 +78,9 @@ GENERALIST_FINETUNE_EPOCHS = 20  # the multi-object policy fine-tuned onto each 
 GENERALIST_OBJECTS = 32  # procedural training objects of the generalist (Table 1 mix) when no dataset is given
 GENERALIST_HOLDOUT = 2  # of them, held aside for its best_robust selection
 GENERALIST_OBJECT_SEED = 1000  # first seed of those procedural objects (the packaged ones use seeds 0 and 213)
-TABLES = ("main", "ablation", "train-length", "ood", "continued", "damping-range", "generalist")
+SCALING_OBJECTS = (1, 8, 32, 128, 277)  # training-set sizes of the scaling table (277: the paper's Table 1)
+SCALING_POINTS = 3  # checkpoints of each scaling run evaluated, evenly along its budget
+TABLES = ("main", "ablation", "train-length", "ood", "continued", "damping-range", "generalist", "scaling")
 
 #: The paper's seven benchmark objects (GAPartNet ids), in its tables' order.
 PAPER_OBJECTS = ("12583", "45261", "45661", "45936", "46440", "48513", "7310")
@@ -190,6 +198,8 @@ class ReproduceConfig:
     train_objects: int = GENERALIST_OBJECTS  # generalist: procedural training objects (a dataset built in out)
     dataset: str | None = None  # generalist: a dataset folder (dataset build) to train on instead
     holdout: int = GENERALIST_HOLDOUT  # generalist: training objects held aside for best_robust
+    scaling: tuple[int, ...] = SCALING_OBJECTS  # scaling: the training-set sizes
+    modes: tuple[str, ...] = MODES  # the evaluation modes of trained runs (controllers are det only)
 
     def __post_init__(self):
         if not self.objects:
@@ -210,11 +220,15 @@ class ReproduceConfig:
         if self.dataset is None and not 0 <= self.holdout < self.train_objects:
             raise DragMeshError(f"the generalist needs --train-objects > --holdout >= 0, got {self.train_objects} "
                                 f"and {self.holdout}")
+        if not self.scaling or min(self.scaling) < 1 or len(set(self.scaling)) < len(self.scaling):
+            raise DragMeshError(f"the scaling table needs distinct training-set sizes >= 1, got {self.scaling}")
+        if not self.modes or not set(self.modes) <= set(MODES):
+            raise DragMeshError(f"evaluation modes must be some of {', '.join(MODES)}, got {self.modes}")
 
     @property
     def protocol(self) -> EvalProtocol:
         """How a trained run is evaluated (det and stoch)."""
-        return EvalProtocol(dampings=self.dampings, episodes=self.episodes, seed=self.eval_seed)
+        return EvalProtocol(dampings=self.dampings, modes=self.modes, episodes=self.episodes, seed=self.eval_seed)
 
     @property
     def controller_protocol(self) -> EvalProtocol:
@@ -225,6 +239,13 @@ class ReproduceConfig:
     def generalist_epochs(self) -> int:
         """The generalist's budget: as many env steps as the specialists of every object together."""
         return self.epochs * len(self.objects)
+
+    @property
+    def scaling_epochs(self) -> list[int]:
+        """The epochs a scaling run is evaluated at: ``SCALING_POINTS`` checkpoints evenly along its budget."""
+        every = max(1, self.generalist_epochs // SCALING_POINTS)
+        return sorted({min(k * every, self.generalist_epochs) for k in range(1, SCALING_POINTS)}
+                      | {self.generalist_epochs})
 
     def scaled(self, paper_epochs: int) -> int:
         """The paper's epoch count at this budget (``paper_epochs`` at 150 base epochs)."""
@@ -237,7 +258,8 @@ class Run:
     """A training run folder: a base method, or a fine-tune ``recipe`` of ``parent`` (from its final
     checkpoint, which is at ``parent.epochs``). A run reaches ``epochs`` by resuming its folder, so one folder
     can be trained stage by stage. A ``generalist`` run trains over the dataset's objects (``object`` is then the
-    dataset); its fine-tunes go onto their own ``object``."""
+    dataset), a scaling run over the first ``train_objects`` of the scaling dataset in the Table 1 mix; a
+    generalist's fine-tunes go onto their own ``object``."""
 
     object: str
     seed: int
@@ -246,28 +268,37 @@ class Run:
     parent: Run | None = None
     recipe: str | None = None
     generalist: bool = False
+    train_objects: int | None = None
 
     @property
     def name(self) -> str:
         if self.parent is not None:
             return f"{self.parent.name}+{self.recipe}"
+        if self.train_objects:
+            return f"generalist_{self.method}_n{self.train_objects}"
         return f"generalist_{self.method}" if self.generalist else self.method
 
     def folder(self, out: Path) -> RunDir:
-        group = "generalist" if self.generalist else Path(self.object).name
+        group = "scaling" if self.train_objects else "generalist" if self.generalist else Path(self.object).name
         return RunDir(out / "runs" / group / f"{self.name}_s{self.seed}")
 
 
 @dataclass(frozen=True)
 class Eval:
-    """An evaluation: of a run's checkpoint (``best_robust``, or ``final``: the run's checkpoint at ``run.epochs``),
-    or of a controller ``controller`` on ``object``."""
+    """An evaluation: of a run's checkpoint (``best_robust``, or ``final``: the run's checkpoint at ``epoch``, by
+    default ``run.epochs``), or of a controller ``controller`` on ``object``."""
 
     object: str
     run: Run | None = None
     checkpoint: str = "best_robust"
     controller: str | None = None
     seed: int = 0
+    epoch: int | None = None
+
+    @property
+    def at(self) -> int:
+        """The epoch of a ``final`` checkpoint."""
+        return self.epoch or self.run.epochs
 
     @property
     def zero_shot(self) -> bool:
@@ -284,11 +315,11 @@ class Eval:
         """The row this evaluation fills: the controller or method, or ``run@epochs`` for a named epoch."""
         if self.run is None:
             return self.controller
-        return self.run.name if self.checkpoint == "best_robust" else f"{self.run.name}@{self.run.epochs}"
+        return self.run.name if self.checkpoint == "best_robust" else f"{self.run.name}@{self.at}"
 
     def checkpoint_path(self, out: Path) -> Path:
         run = self.run.folder(out)
-        return run.checkpoint(self.checkpoint if self.checkpoint == "best_robust" else epoch_name(self.run.epochs))
+        return run.checkpoint(self.checkpoint if self.checkpoint == "best_robust" else epoch_name(self.at))
 
     def path(self, out: Path, c: ReproduceConfig) -> Path:
         if self.run is None:
@@ -330,6 +361,14 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
                                 recipe="continued")
                     steps += [Eval(obj, general, seed=s), Eval(obj, general, "final", seed=s), special,
                               Eval(obj, special, seed=s), tuned, Eval(obj, tuned, "final", seed=s)]
+        return steps
+    if table == "scaling":
+        for s in c.seeds:  # every size of a seed before the next seed: a partial table has every size
+            for m in generalist_methods(c):
+                for n in c.scaling:
+                    run = Run("scaling_dataset", s, c.generalist_epochs, method=m, generalist=True, train_objects=n)
+                    steps += [run, *(Eval(obj, run, "final", seed=s, epoch=e) for e in c.scaling_epochs
+                                     for obj in c.objects)]
         return steps
     obj = c.objects[0]
 
@@ -376,7 +415,13 @@ def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
     # main/ablation evaluate a base run's best_robust checkpoint; the appendix tables evaluate named epochs
     selection = Selection() if run.parent is None else Selection(every=0)
     kwargs = {"save_every": save_every, "selection": selection, "progress": False}
-    if run.generalist:
+    if run.train_objects:  # no best_robust: the table reads the checkpoints along the budget
+        objects, trajectories = _scaling_subset(c, out, run.train_objects)
+        spec = method_spec(run.method, objects, {"epochs": run.epochs, "num_envs": c.num_envs, "seed": run.seed},
+                           backend=c.backend)
+        start_or_resume(spec, [folder], trajectory=trajectories, epochs=run.epochs, progress=False,
+                        save_every=c.scaling_epochs[0], selection=Selection(every=0))
+    elif run.generalist:
         objects, trajectories = dataset_objects(_dataset(c, out))
         spec = method_spec(run.method, objects, {"epochs": run.epochs, "num_envs": c.num_envs, "seed": run.seed},
                            backend=c.backend, holdout=c.holdout)
@@ -405,6 +450,20 @@ def _dataset(c: ReproduceConfig, out: Path) -> Path:
     return out / "dataset"
 
 
+def _scaling_subset(c: ReproduceConfig, out: Path, n: int) -> tuple[list[str], list[str]]:
+    """The first ``n`` objects of the scaling dataset (``max(c.scaling)`` procedural objects in the Table 1 mix,
+    built into ``out`` and resumable) in the mix of ``n`` (so each size's objects hold the smaller sizes'), and their
+    trajectories; an object whose trajectory failed its gate is left out (the run's record lists what it trained
+    on)."""
+    folder = out / "scaling_dataset"
+    build_dataset([], folder, progress=False, procedural=max(c.scaling), seed=GENERALIST_OBJECT_SEED)
+    names = {f"{cat}_{GENERALIST_OBJECT_SEED + i:04d}" for cat, k in table1_mix(n).items() for i in range(k)}
+    pairs = [(o, t) for o, t in zip(*dataset_objects(folder), strict=True) if Path(o).name in names]
+    if not pairs:
+        raise DragMeshError(f"{folder}: none of the first {n} objects passed its trajectory gate")
+    return [o for o, _ in pairs], [t for _, t in pairs]
+
+
 def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
     if ev.run is None:
         p = c.controller_protocol
@@ -417,10 +476,8 @@ def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
     if ev.checkpoint != "best_robust" and folder.trained_epochs() < ev.run.epochs:
         raise DragMeshError(f"{folder.path}: trained to epoch {folder.trained_epochs()}, not {ev.run.epochs} (the "
                             "evaluation of a stage runs right after it)")
-    program, ts, _, ck = load_run(ev.checkpoint_path(out), c.backend)
-    controller = program.controller(ts)
-    task = task_of(ev.object, None, program.task.config, program.task.scene.config) if ev.zero_shot \
-        else program.task
+    program, ts, _, ck = load_run(ev.checkpoint_path(out), c.backend, object_dir=ev.object if ev.zero_shot else None)
+    controller, task = program.controller(ts), program.task
     result = evaluate(c.protocol.task(task), controller, c.protocol)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=ev.run.epochs, label=ev.label, seed=ev.seed,
                   object=Path(ev.object).name, zero_shot=ev.zero_shot)
@@ -439,7 +496,7 @@ def video_path(out: Path, ev: Eval) -> Path:
 def _cost(step: Run | Eval, c: ReproduceConfig) -> float:
     """Relative cost for the progress estimate: an epoch of training ~ one evaluation cell."""
     if isinstance(step, Eval):
-        return len(c.dampings) * (1 if step.run is None else len(MODES))
+        return len(c.dampings) * (1 if step.run is None else len(c.modes))
     return float(step.epochs - (step.parent.epochs if step.parent else 0))
 
 
@@ -612,6 +669,51 @@ def figure2(results: list[dict], labels: list[str], objects: list[str], path: Pa
     return path
 
 
+LINE_STYLES = ("-", "--", ":", "-.")  # one per damping in the scaling figure
+
+
+def scaling_figure(results: list[dict], c: ReproduceConfig, path: Path) -> Path:
+    """Zero-shot success (mean over the evaluated objects, error bars: SE over seeds) against the number of training
+    objects at the full budget (a line per damping and mode), and against env steps (a line per size and damping,
+    det)."""
+    names = [Path(o).name for o in c.objects]
+    steps_per_epoch = (c.num_envs or PPOConfig().num_envs) * PPOConfig().rollout_len
+    fig = Figure(figsize=(11, 3.8))
+    by_size, by_steps = fig.subplots(1, 2, sharey=True)
+
+    def point(m: str, n: int, e: int, d: float, mode: str) -> tuple[float, float]:
+        v = _per_seed(results, Eval(c.objects[0], Run("", 0, e, method=m, train_objects=n), "final").label, names,
+                      d, mode)
+        return (float(np.mean(v)) if v else np.nan), (np.std(v, ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0.0)
+
+    sizes = sorted(c.scaling)
+    for m in generalist_methods(c):
+        for d in c.dampings:
+            for mode in c.modes:
+                mean, se = zip(*(point(m, n, c.generalist_epochs, d, mode) for n in sizes), strict=True)
+                by_size.errorbar(sizes, mean, yerr=se, capsize=2, marker="o", ls="-" if mode == "det" else "--",
+                                 label=f"{m} x{d:g} {mode}")
+            for k, n in enumerate(sizes):
+                mean, se = zip(*(point(m, n, e, d, "det") for e in c.scaling_epochs), strict=True)
+                by_steps.errorbar([e * steps_per_epoch for e in c.scaling_epochs], mean, yerr=se, capsize=2,
+                                  marker="o", color=f"C{k}", ls=LINE_STYLES[c.dampings.index(d) % len(LINE_STYLES)],
+                                  label=f"{m} N={n} x{d:g}")
+    by_size.set_xscale("log")
+    by_size.minorticks_off()
+    by_size.set_xticks(sizes, [str(n) for n in sizes])
+    by_size.set_xlabel(f"training objects (each run {c.generalist_epochs * steps_per_epoch:,} env steps)")
+    by_size.set_ylabel(f"zero-shot success (mean over {len(names)} objects)")
+    by_steps.set_xlabel("env steps (det)")
+    by_size.set_ylim(-0.02, 1.05)
+    for ax in (by_size, by_steps):
+        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    tmp.replace(path)
+    return path
+
+
 def training_curves(table: str, c: ReproduceConfig, out: Path) -> Path | None:
     """Training success per epoch by method: the mean over the objects of each seed's curve, and over seeds with a
     band of one SE (the runs' logs as they are; a table's partial runs count as far as they went)."""
@@ -680,6 +782,19 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
                   comparison_table(results, labels, list(c.objects), c.dampings), "",
                   f"Every seed's success (seeds {', '.join(map(str, c.seeds))}, in that order):", "",
                   seeds_table(results, labels, list(c.objects), c.seeds, c.dampings)]
+    elif table == "scaling":
+        labels = [s.label for s in plan(table, c) if isinstance(s, Eval) and s.seed == c.seeds[0]
+                  and s.object == c.objects[0]]
+        fig = scaling_figure(results, c, out / "scaling.png")
+        lines += [f"Training objects: the first N of {max(c.scaling)} procedural objects in the paper's Table 1 mix "
+                  f"(seeds from {GENERALIST_OBJECT_SEED}; each size's objects hold the smaller sizes'), every size "
+                  f"trained for {c.generalist_epochs} epochs (the generalist's budget) without best_robust; every "
+                  "object evaluated zero-shot (never trained on).",
+                  "Rows: `generalist_M_nN@E`: method M over N training objects, its checkpoint at epoch E.",
+                  "Cells: det / stoch success, mean±SE over seeds.", "",
+                  comparison_table(results, labels, list(c.objects), c.dampings), "",
+                  f"Every seed's success (seeds {', '.join(map(str, c.seeds))}, in that order):", "",
+                  seeds_table(results, labels, list(c.objects), c.seeds, c.dampings), "", f"![scaling]({fig.name})"]
     else:
         rows, columns = _diagnostic_layout(table, c)
         lines += [f"Object {Path(c.objects[0]).name} (the paper's diagnostic object is 45936); mean±SE over seeds.",

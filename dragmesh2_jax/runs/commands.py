@@ -20,10 +20,10 @@ from dragmesh2_jax.ppo.checkpoint import load_checkpoint
 from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.ppo.train import TrainProgram, TrainState, init_jit, seed_keys
 from dragmesh2_jax.render import render_policy_video, render_pose, render_trajectory_gif
-from dragmesh2_jax.runs.build import load_task, program_of, task_of
+from dragmesh2_jax.runs.build import load_task, program_of
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
-from dragmesh2_jax.runs.spec import finetune_spec, method_spec
+from dragmesh2_jax.runs.spec import RunSpec, finetune_spec, method_spec
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import contact_budget, reset_starts
@@ -126,24 +126,35 @@ def dataset_objects(folder: str | Path) -> tuple[list[str], list[str]]:
     return [o for o, _ in passed], [t for _, t in passed]
 
 
-def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "jax", keep_env: bool = True
+def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "jax", keep_env: bool = True,
+             object_dir: str | None = None, trajectory: str | None = None
              ) -> tuple[TrainProgram, TrainState, RunDir, Path]:
     """(program, train state, run, checkpoint path) from a checkpoint inside a run folder (or the run folder: its
     ``best_robust`` checkpoint, else ``final``). On an engine other than the one the run trained on, the policy
     (parameters and normalisers) is moved into a fresh state of that engine: a policy trained on one engine
-    evaluates on the other."""
+    evaluates on the other. With ``object_dir`` the program is the run's on that object instead of the run's
+    objects (its trajectory generated unless given) and only the policy is loaded: a zero-shot evaluation or a
+    fine-tune onto a new object builds one scene, not every training object's."""
     run, ck = RunDir.of_checkpoint(checkpoint)
-    spec = run.spec()
+    spec, trajectories = run.spec(), None
+    if object_dir:
+        spec, trajectories, keep_env = on_object(spec, object_dir), [trajectory], True
     trained_on = run.backend
-    program = program_of(spec.on(backend or trained_on, impl), run.trajectories())
+    trajectories = trajectories or run.trajectories()
+    program = program_of(spec.on(backend or trained_on, impl), trajectories)
     fresh = init_jit(program, program.data(), seed_keys([spec.ppo.seed])[0])
     if program.task.backend.name == trained_on:
         return program, load_checkpoint(fresh, ck, keep_env=keep_env), run, ck
-    source = program_of(spec.on(trained_on, impl), run.trajectories())
+    source = program_of(spec.on(trained_on, impl), trajectories)
     src = load_checkpoint(init_jit(source, source.data(), seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
     return program, fresh.replace(params=src.params, state_stats=src.state_stats, token_stats=src.token_stats,
                                   aux_stats=src.aux_stats, privileged_stats=src.privileged_stats,
                                   value_stats=src.value_stats, epoch=src.epoch, aram_lambda=src.aram_lambda), run, ck
+
+
+def on_object(spec: RunSpec, object_dir: str) -> RunSpec:
+    """``spec`` on one object instead of its own object(s): a policy carried onto a new object."""
+    return dataclasses.replace(spec, object=str(object_dir), objects=(), holdout=0)
 
 
 def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "jax",
@@ -156,13 +167,12 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
     more = get_finetune(recipe).epochs if epochs is None else epochs
     if more < 1:
         raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")
-    parent, ts, run, ck = load_run(checkpoint, backend, impl)
+    parent, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
     spec = finetune_spec(run.spec().on(parent.task.backend.name, impl), recipe, str(ck.resolve()),
                          int(ts.epoch) + more)
     trajectories = run.trajectories()
     if object_dir:
-        spec = dataclasses.replace(spec, object=str(object_dir), objects=(), holdout=0)
-        trajectories = [trajectory]
+        spec, trajectories = on_object(spec, object_dir), [trajectory]
     program = program_of(spec, trajectories)
     start = load_checkpoint(init_jit(program, program.data(), seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
     _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=[t.traj for t in tasks_of_program(program)],
@@ -182,11 +192,8 @@ def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend
     """The protocol for a trained run's checkpoint on its own object(s), or zero-shot on ``object_dir`` (any object
     folder; its trajectory generated unless given), written into the run's evaluations (keyed by checkpoint,
     protocol and, zero-shot, object); returns the result and its file."""
-    program, ts, run, ck = load_run(checkpoint, backend, impl)
-    task = program.task
-    if object_dir:
-        task = task_of(object_dir, trajectory, task.config, task.scene.config)
-    result = evaluate(protocol.task(task), program.controller(ts), protocol)
+    program, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
+    result = evaluate(protocol.task(program.task), program.controller(ts), protocol)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs(),
                   zero_shot=bool(object_dir))
     on = Path(object_dir).name if object_dir else None
@@ -224,11 +231,8 @@ def view_run(checkpoint: str | None, object_dir: str | None, trajectory: str | N
     checkpoint the expert drag on ``object_dir``, in MuJoCo's viewer from the evaluation's perturbed starts; returns
     the control steps shown."""
     if checkpoint:
-        program, ts, _, _ = load_run(checkpoint, backend, impl)
-        task = program.task
-        if object_dir:
-            task = task_of(object_dir, trajectory, task.config, task.scene.config)
-        controller = program.controller(ts)
+        program, ts, _, _ = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
+        task, controller = program.task, program.controller(ts)
     elif object_dir:
         task = load_task(object_dir, trajectory, backend or "mujoco", impl)
         controller = tracking.tracking_controller(task)
