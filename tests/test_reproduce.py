@@ -70,6 +70,36 @@ def test_the_generalist_plan_gives_one_policy_the_specialists_budget():
         ReproduceConfig(objects=("a",), train_objects=2, holdout=2)
 
 
+def test_the_scaling_plan_trains_every_size_for_one_budget_and_reads_it_along_the_way():
+    """Per seed and training-set size one policy for the generalist's budget, whatever the size; its checkpoints at
+    a third, two thirds and all of it evaluated zero-shot on every object, each in a file of its own; every size of
+    a seed before the next seed."""
+    c = ReproduceConfig(objects=("a", "b"), seeds=(0, 1), epochs=150, scaling=(1, 8, 32))
+    steps = plan("scaling", c)
+    runs = [s for s in steps if isinstance(s, Run)]
+    assert [(r.seed, r.train_objects) for r in runs] == [(0, 1), (0, 8), (0, 32), (1, 1), (1, 8), (1, 32)]
+    assert {r.epochs for r in runs} == {300} and c.scaling_epochs == [100, 200, 300]
+    evals = [s for s in steps if isinstance(s, Eval)]
+    assert len(evals) == len(runs) * 3 * 2 and all(s.zero_shot for s in evals)
+    assert {s.label for s in evals if s.run.train_objects == 8} == {f"generalist_hold_n8@{e}" for e in (100, 200, 300)}
+    out = Path("rep")
+    assert len({s.path(out, c) for s in evals}) == len(evals)
+    assert len({s.checkpoint_path(out) for s in evals}) == len(evals) // 2  # one checkpoint, every object
+    with pytest.raises(DragMeshError, match="scaling"):
+        ReproduceConfig(objects=("a",), scaling=(8, 8))
+    with pytest.raises(DragMeshError, match="modes"):
+        ReproduceConfig(objects=("a",), modes=("greedy",))
+
+
+def test_the_scaling_sizes_are_nested_subsets_of_one_table1_mix(tmp_path):
+    c = ReproduceConfig(objects=("a",), scaling=(1, 3))
+    one, _ = reproduce_lib._scaling_subset(c, tmp_path, 1)
+    three, trajectories = reproduce_lib._scaling_subset(c, tmp_path, 3)
+    assert [Path(o).name for o in one] == ["drawer_cabinet_1000"]  # the Table 1 mix of one object: a drawer
+    assert set(one) < set(three) and len(three) == len(trajectories) == 3
+    assert {Path(o).name.rsplit("_", 1)[0] for o in three} == {"drawer_cabinet", "door_cabinet"}
+
+
 class FakeSteps:
     """Stand-ins for training and evaluation that leave what the real ones leave (a run's log and checkpoints, an
     evaluation's result), so the plan, the skipping of done steps and the tables run without computing."""
@@ -125,6 +155,8 @@ def test_every_table_runs_its_plan_and_an_interrupted_reproduction_resumes(tmp_p
     assert "pica+both+continued" in (out / "continued.md").read_text()
     assert "| pica+continued (7 ep) |" in (out / "train-length.md").read_text()  # 500 epochs at 2/150 scale
     assert "| generalist_hold+continued@22 | x4 |" in (out / "generalist.md").read_text()
+    scaling = (out / "scaling.md").read_text()
+    assert "| generalist_hold_n277@2 | x4 |" in scaling and (out / "scaling.png").read_bytes()[:4] == b"\x89PNG"
     # a larger budget: the runs are trained on and evaluated again, the controllers' evaluations are kept
     bigger = dataclasses.replace(TINY, epochs=3)
     n_train, n_eval = len(fake.trained), len(fake.evaluated)
