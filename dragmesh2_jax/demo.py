@@ -18,7 +18,7 @@ from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_bytes, atomic_write_text
 from dragmesh2_jax.progress import LogLines
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video, render_pose
-from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
+from dragmesh2_jax.runs.commands import evaluate_loaded, load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.runs.spec import method_spec
@@ -44,10 +44,9 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
     _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=False, save_every=max(epochs // 3, 1),
                                     progress=progress)
     stages(1, f"1/4 trained ({epochs} epochs)")
-    program, ts, _, _ = load_run(out)  # the checkpoint selected by robustness
+    program, ts, run, ck = load_run(out)  # the checkpoint selected by robustness
     traj = program.task.traj
-    result, _ = evaluate_checkpoint(str(out), PAPER)
-    ck = Path(result["checkpoint"])
+    result, _ = evaluate_loaded(program, ts, run, ck, PAPER)
     stages(2, f"2/4 evaluated {ck.name}")
     plot_success(result, out / "success_vs_damping.png")
     used = grasp_picture(program.task, out / "grasp.png", renderer)

@@ -193,10 +193,15 @@ def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend
     folder; its trajectory generated unless given), written into the run's evaluations (keyed by checkpoint,
     protocol and, zero-shot, object); returns the result and its file."""
     program, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
+    return evaluate_loaded(program, ts, run, ck, protocol, Path(object_dir).name if object_dir else None)
+
+
+def evaluate_loaded(program: TrainProgram, ts: TrainState, run: RunDir, ck: Path, protocol: EvalProtocol = PAPER,
+                    on: str | None = None) -> tuple[dict, Path]:
+    """:func:`evaluate_checkpoint` of a run already loaded (``load_run``); ``on``: the object of a zero-shot
+    evaluation."""
     result = evaluate(protocol.task(program.task), program.controller(ts), protocol)
-    result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs(),
-                  zero_shot=bool(object_dir))
-    on = Path(object_dir).name if object_dir else None
+    result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs(), zero_shot=on is not None)
     return result, run.write_evaluation(ck, protocol, result, markdown_table(result), on=on)
 
 
