@@ -122,15 +122,16 @@ def test_the_model_is_data_same_object_other_damping_shares_the_program():
              for damping in (10.0, 40.0)]
     assert tasks[0].backend.budget.contacts == tasks[1].backend.budget.contacts
     programs = [make_train(t, base.method, base.config) for t in tasks]
-    states = [epoch_jit(programs[0], programs[0].data(), init_jit(programs[0], programs[0].data(),
-                                                                   jax.random.PRNGKey(0)))[0]]
+
+    def first_epoch(p):
+        return epoch_jit(p, p.data(), init_jit(p, p.data(), jax.random.PRNGKey(0)))[0]
+
+    ts = first_epoch(programs[0])
     compiled = epoch_jit._cache_size()
-    states.append(epoch_jit(programs[1], programs[1].data(), init_jit(programs[1], programs[1].data(),
-                                                                      jax.random.PRNGKey(0)))[0])
+    first_epoch(programs[1])
     assert epoch_jit._cache_size() == compiled  # the other damping found the program compiled
     damping = [float(p.task.data.physics.model.dof_damping[p.task.scene.ids.target_dof]) for p in programs]
     assert damping == [10.0, 40.0]
-    ts = states[0]
     assert int(ts.epoch) == 1 and float(ts.privileged_stats.count) > 1
     a = programs[0].make_policy(True)(policy_params(ts), ts.env_state.obs, jax.random.PRNGKey(0))
     assert a.shape == (base.config.num_envs, 51) and np.isfinite(np.asarray(a)).all()
