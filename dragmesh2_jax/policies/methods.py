@@ -9,7 +9,9 @@ Beyond the paper (its §5 asks for a richer contact interface), each a preset ab
 sees damping and contact load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), and
 ``pica_load``, which combines them and trains from perturbed starts, and ``pica_grip``: contact-load observation,
 privileged critic and a load-budget reward, with the paper's damping range. ``hold`` (``--method recommended``) is
-the project's recipe for holding a part under load, ``hold_blind`` the same without force or touch sensing. The task
+the project's recipe for holding a part under load, ``hold_blind`` the same without force or touch sensing,
+``hold_grip`` with the fixed load-budget reward and ``hold_cmdp`` with the wrist load as a CMDP constraint (its
+penalty weight a Lagrange multiplier). The task
 itself (action interface, success threshold, damping multipliers, episode length) is the paper's for every method.
 """
 
@@ -20,7 +22,7 @@ from dataclasses import dataclass, field
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.networks import NetworkConfig
-from dragmesh2_jax.task.config import ResetNoise, RewardConfig
+from dragmesh2_jax.task.config import LoadConstraint, ResetNoise, RewardConfig
 
 
 @dataclass(frozen=True)
@@ -34,6 +36,7 @@ class Method:
     damping_range: tuple[float, float] | None = None  # training range; None: the paper's [1, 2]
     reset_noise: bool = False  # train from perturbed expert grasps (TaskConfig.reset_noise)
     w_load: float = 0.0  # the load-budget reward (RewardConfig.w_load)
+    load_constraint: LoadConstraint | None = None  # the wrist load as a CMDP constraint (RewardConfig)
     network: NetworkConfig = field(default_factory=NetworkConfig)  # the actor-critic's sizes
 
 
@@ -64,6 +67,9 @@ METHODS = {m.name: m for m in (
     Method("hold_grip", "gla", True, "PICA-Hold with the load-budget reward of pica_grip (the arm's pull beyond what "
            "the grasp holds is penalised)", critic="privileged", force_obs=True, damping_range=(1.0, 8.0),
            reset_noise=True, w_load=5.0),
+    Method("hold_cmdp", "gla", True, "PICA-Hold with the wrist load as a CMDP constraint: a Lagrange multiplier, "
+           "moved by dual ascent, weighs the pull beyond what the grasp holds", critic="privileged", force_obs=True,
+           damping_range=(1.0, 8.0), reset_noise=True, load_constraint=LoadConstraint()),
     Method("hold_blind", "gla", True, "PICA-Hold without force or touch sensing (the paper's observation): "
            "privileged critic, damping [1, 8], perturbed starts", critic="privileged", damping_range=(1.0, 8.0),
            reset_noise=True),
@@ -98,4 +104,6 @@ def task_overrides(method: Method) -> dict:
         out["reset_noise"] = ResetNoise()
     if method.w_load:
         out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), w_load=method.w_load)
+    if method.load_constraint is not None:
+        out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), load_constraint=method.load_constraint)
     return out

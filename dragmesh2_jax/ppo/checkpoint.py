@@ -1,16 +1,16 @@
 """Checkpoints with Orbax (as Brax and Playground).
 
-A checkpoint is a directory of two Orbax checkpoints: ``learner`` (parameters, optimiser, normalisers, rng, epoch,
-the ARAM weight: the TrainState without its worlds) and ``env`` (the worlds' states), so that exact resume restores
-both and evaluation or a fine-tune can restore the learner alone, even from a run whose environment state had
-another layout. It is written to a temporary sibling and renamed into place (a crash never leaves half a
-checkpoint, and ``best``/``best_robust`` are replaced whole). A checkpoint that does not match the program (another
-method, config or version), or a damaged one, is one clear error, not a crash. Where checkpoints live in a run
-folder is ``runs/rundir.py``'s business.
-"""
+A checkpoint is a directory of two Orbax checkpoints: ``learner`` (parameters, optimiser, normalisers, rng, epoch, the
+reward's adaptive weights: the TrainState without its worlds) and ``env`` (the worlds' states), so that exact resume
+restores both and evaluation or a fine-tune can restore the learner alone, even from a run whose environment state had
+another layout. It is written to a temporary sibling and renamed into place (a crash never leaves half a checkpoint,
+and ``best``/``best_robust`` are replaced whole). A checkpoint that does not match the program (another method, config
+or version), or a damaged one, is one clear error, not a crash. Where checkpoints live in a run folder is
+``runs/rundir.py``'s business."""
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 from pathlib import Path
 
@@ -41,6 +41,18 @@ def save_checkpoint(ts: TrainState, path: str | Path) -> Path:
     return path
 
 
+#: TrainState fields added after checkpoints were first written: a checkpoint without one restores with the
+#: template's value, which is what that run had (a run before the load constraint had no multiplier: 0).
+LATER_FIELDS = frozenset({"load_lambda"})
+
+
+def _restore_learner(ck: ocp.StandardCheckpointer, path: Path, learner: TrainState) -> TrainState:
+    stored = ck.metadata(path).item_metadata.tree
+    held = {f.name: getattr(learner, f.name) for f in dataclasses.fields(learner)
+            if f.name in stored or f.name not in LATER_FIELDS}
+    return learner.replace(**ck.restore(path, held))
+
+
 def _key(i: int) -> str:
     return f"leaf_{i:05d}"
 
@@ -64,7 +76,7 @@ def load_checkpoint(template: TrainState, path: str | Path, keep_env: bool = Fal
         raise DragMeshError(f"{path}: no such checkpoint")
     ck = ocp.StandardCheckpointer()
     try:
-        ts = ck.restore((path / "learner").absolute(), template.replace(env_state=None))
+        ts = _restore_learner(ck, (path / "learner").absolute(), template.replace(env_state=None))
         env = template.env_state
         if not keep_env:
             restored = ck.restore((path / "env").absolute(), _sized_leaves(env))

@@ -12,9 +12,10 @@ the same structure (``task.data``, an argument) or another seed reuses it.
                                                           split over a device mesh when given (``shard_map``)
 
 Python loops over epochs (``train`` with callbacks: logs, checkpoints and robustness checks are the caller's).
-Time-limit truncations bootstrap from V(final observation); terminations (success, detachment) do not. The ARAM
-weight (facts §5) is ``ts.aram_lambda``, bound into the task's reward parameters for the epoch's rollout and moved
-once per epoch.
+Time-limit truncations bootstrap from V(final observation); terminations (success, detachment) do not. The
+reward's adaptive weights, ARAM's (facts §5, ``ts.aram_lambda``) and the load constraint's Lagrange multiplier
+(``ts.load_lambda``, dual ascent on the epoch's mean cost), are bound into the task's reward parameters for the
+epoch's rollout and moved once per epoch.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from dragmesh2_jax.policies.networks import ActorCritic, make_inference_fn
 from dragmesh2_jax.policies.normalize import RunningStats
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.losses import Batch, compute_gae, compute_ppo_loss, gaussian_logp
-from dragmesh2_jax.task.config import AramConfig
+from dragmesh2_jax.task.config import AramConfig, LoadConstraint
 from dragmesh2_jax.task.env import PullTask, TaskData
 from dragmesh2_jax.task.protocol import CLIP_LEVEL, Obs
 from dragmesh2_jax.task.wrappers import AutoReset
@@ -61,6 +62,7 @@ class TrainState:
     epoch: jnp.ndarray
     lr: jnp.ndarray
     aram_lambda: jnp.ndarray  # the ARAM weight of the reward (0 unless the task's reward has ARAM)
+    load_lambda: jnp.ndarray  # the load constraint's multiplier (0 unless the task's reward has one)
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,10 +124,14 @@ def policy_params(ts: TrainState) -> dict:
     return {"net": ts.params, "state_stats": ts.state_stats, "token_stats": ts.token_stats}
 
 
-def _env(program: TrainProgram, data: TaskData, aram_lambda) -> AutoReset:
-    """The auto-resetting env over ``data``, the reward's ARAM weight bound in when the reward has ARAM."""
-    if program.task.config.reward.aram is not None:
-        data = data.replace(params=data.params.replace(aram_lambda=aram_lambda))
+def _env(program: TrainProgram, data: TaskData, ts: TrainState | None = None) -> AutoReset:
+    """The auto-resetting env over ``data``, the reward's adaptive weights of ``ts`` bound in where the reward has
+    them (``None``: a new run's, 0)."""
+    reward = program.task.config.reward
+    if ts is not None and reward.aram is not None:
+        data = data.replace(params=data.params.replace(aram_lambda=ts.aram_lambda))
+    if ts is not None and reward.load_constraint is not None:
+        data = data.replace(params=data.params.replace(load_lambda=ts.load_lambda))
     return AutoReset(program.task.bind(data))
 
 
@@ -142,7 +148,7 @@ def init(program: TrainProgram, data: TaskData, key: jax.Array) -> TrainState:
     """A new run's state (parameters, optimiser, worlds) from ``key``."""
     c = program.config
     rng, k_net, k_env = jax.random.split(key, 3)
-    env = _env(program, data, jnp.float32(0.0))
+    env = _env(program, data)
     env_state = jax.vmap(env.reset)(jax.random.split(k_env, c.num_envs))
     obs = env_state.obs  # sizes come from the env (120, 16 x 102, 4 for the pulling task)
     params = program.net.init(k_net, obs.state[:1], obs.history[:1], obs.privileged[:1], method=ActorCritic.init_all)
@@ -152,12 +158,12 @@ def init(program: TrainProgram, data: TaskData, key: jax.Array) -> TrainState:
                       aux_stats=RunningStats.create(obs.aux.shape[-1]),
                       privileged_stats=RunningStats.create(obs.privileged.shape[-1]),
                       value_stats=RunningStats.create(1), rng=rng, epoch=jnp.int32(0), lr=jnp.float32(c.lr),
-                      aram_lambda=jnp.float32(0.0))
+                      aram_lambda=jnp.float32(0.0), load_lambda=jnp.float32(0.0))
 
 
 def _rollout(program: TrainProgram, data: TaskData, ts: TrainState):
     c, net = program.config, program.net
-    env = _env(program, data, ts.aram_lambda)
+    env = _env(program, data, ts)
     step = jax.vmap(env.step)
     vs = ts.value_stats
     denorm = lambda v: v * jnp.sqrt(vs.var[0] + 1e-5) + vs.mean[0]  # noqa: E731
@@ -191,6 +197,12 @@ def aram_update(cfg: AramConfig, lam, metrics: dict):
     lambda <- clip(lambda + lr (clip099 - target), 0, lambda_max)."""
     ok = (metrics["success"] > cfg.success_gate) & (metrics["episodes"] > 0)
     return jnp.where(ok, jnp.clip(lam + cfg.lr * (metrics["clip099"] - cfg.target), 0.0, cfg.lambda_max), lam)
+
+
+def load_lambda_update(cfg: LoadConstraint, lam, mean_cost):
+    """The load constraint's multiplier once per epoch, by dual ascent on the epoch's mean cost per step:
+    lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max)."""
+    return jnp.clip(lam + cfg.lr * (mean_cost - cfg.budget), 0.0, cfg.lambda_max)
 
 
 def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainState, dict]:
@@ -254,6 +266,11 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
         "clip099_active": jnp.mean(m["active_abs_max"] > CLIP_LEVEL),
         "action_l2": m["action_l2"].mean(), "nonfinite": m["nonfinite"].sum(), "overflow": m["overflow"].sum(),
     }
+    load = program.task.config.reward.load_constraint
+    if load is not None:
+        metrics["load_cost"] = m["load_cost"].mean()
+        ts = ts.replace(load_lambda=load_lambda_update(load, ts.load_lambda, metrics["load_cost"]))
+        metrics["load_lambda"] = ts.load_lambda
     aram = program.task.config.reward.aram
     if aram is not None:
         ts = ts.replace(aram_lambda=aram_update(aram, ts.aram_lambda, metrics))

@@ -56,6 +56,24 @@ class ReconfigConfig:
 
 
 @dataclass(frozen=True)
+class LoadConstraint:
+    """Beyond the paper, in its CMDP framing (§3): the wrist load as a constraint, not a fixed penalty. The cost
+    c_t = max(0, |F_wrist| - f_limit) / f_limit; the constraint E[c_t] <= ``budget`` per step. Its Lagrange
+    multiplier lambda weighs -lambda c_t in r_t; it starts at 0 and moves once per epoch by dual ascent on the
+    epoch's mean cost J_c: lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max). So the penalty grows only
+    while the policy pulls past what the grasp holds, and relaxes once it stops."""
+
+    f_limit: float = 100.0  # N: the wrist force the grasp holds (RewardConfig.f_hold; the envelopes, RESULTS §3)
+    budget: float = 0.01  # allowed mean cost per step
+    lr: float = 50.0  # lambda per unit of mean cost over budget, per epoch
+    lambda_max: float = 20.0
+
+    def __post_init__(self):
+        if not (self.f_limit > 0 and self.budget >= 0 and self.lr > 0 and self.lambda_max > 0):
+            raise DragMeshError("load constraint: f_limit, lr and lambda_max must be > 0 and budget >= 0")
+
+
+@dataclass(frozen=True)
 class RewardConfig:
     """r = r_task + r_dist + r_act + r_time + r_detach + r_success + r_bound + r_contact (paper eq. totalreward).
 
@@ -78,6 +96,7 @@ class RewardConfig:
     # arm's pulling load passes ~100-120 N, whatever the speed or damping: -w_load max(0, |F| - f_hold) / f_hold.
     w_load: float = 0.0  # off in the paper's methods
     f_hold: float = 100.0  # N, wrist force the grasp holds (measured on the tuning door)
+    load_constraint: LoadConstraint | None = None  # the wrist load as a CMDP constraint (off in the paper's methods)
     aram: AramConfig | None = None  # diagnostic fine-tunes (paper App. B.5): off in the main recipe
     reconfig: ReconfigConfig | None = None
 

@@ -56,7 +56,7 @@ from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
-from dragmesh2_jax.task.rewards import aram_penalty, reconfig_bonus, reward_terms
+from dragmesh2_jax.task.rewards import aram_penalty, load_cost, reconfig_bonus, reward_terms
 from dragmesh2_jax.trajectory.schema import RHO, Trajectory
 
 STATE_SIZE = 120
@@ -68,7 +68,8 @@ PRIVILEGED_SIZE = len(randomize.RANDOMIZERS) + FORCE_SIZE
 @struct.dataclass
 class TaskParams:
     """Per-object task boundary from the reference trajectory (paper eq. done/progress), and the reward's
-    adaptive ARAM weight (set by the trainer once per epoch; 0 unless ARAM is on)."""
+    adaptive weights, set by the trainer once per epoch: ARAM's and the load constraint's multiplier (0 unless
+    configured)."""
 
     q_start: jnp.ndarray
     q_goal: jnp.ndarray
@@ -78,6 +79,7 @@ class TaskParams:
     hand_hi: jnp.ndarray
     revolute: jnp.ndarray  # the target joint is a hinge (bool)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
+    load_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
 
 
 @struct.dataclass
@@ -362,11 +364,14 @@ class PullTask:
         return Events(d=d, q=q, success=success, detach=detach, terminated=terminated,
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
-    def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray):
-        """r_t (paper eq. totalreward, with ARAM / Reconfig when configured) and the reward stage's new state."""
+    def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray, cost):
+        """r_t (paper eq. totalreward, with the load constraint's term, ARAM or Reconfig when configured) and the
+        reward stage's new state. ``cost``: the load constraint's c_t."""
         c, p, info = self.config, self.params, state.info
         terms = reward_terms(c.reward, a, ev.d, ev.q - info["q_prev"], ev.success.astype(jnp.float32),
                              ev.detach.astype(jnp.float32), k.force[:3])
+        if c.reward.load_constraint is not None:
+            terms["load_constraint"] = -p.load_lambda * cost
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         d_long, q_long = ring(info["d_long"], ev.d), ring(info["q_long"], ev.q)
         stall, cooldown = info["stall"], info["cooldown"]
@@ -386,7 +391,9 @@ class PullTask:
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
-        reward, reward_state = self._reward(state, a, k, ev, finite)
+        lc = c.reward.load_constraint
+        cost = jnp.where(finite, load_cost(lc, k.force[:3]), 0.0) if lc is not None else jnp.float32(0.0)
+        reward, reward_state = self._reward(state, a, k, ev, finite, cost)
         # observation
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         e = (ctrl - k.hand_q).astype(jnp.float32)
@@ -405,7 +412,7 @@ class PullTask:
             "action_l2": jnp.linalg.norm(a), "palm_dist": ev.d.astype(jnp.float32), "reward": reward,
             "nonfinite": (~finite).astype(jnp.float32), "overflow": overflow.astype(jnp.float32),
             "episode_return": ep_return,
-            "episode_length": ev.step.astype(jnp.float32), "q": ev.q,
+            "episode_length": ev.step.astype(jnp.float32), "q": ev.q, "load_cost": cost.astype(jnp.float32),
         }
         return State(physics=ps, obs=obs, reward=reward, done=ev.terminated | ev.truncated, terminated=ev.terminated,
                      truncated=ev.truncated, final_obs=obs, metrics=metrics, info=new_info)

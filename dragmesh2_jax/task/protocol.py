@@ -27,7 +27,7 @@ from flax import struct
 CLIP_LEVEL = 0.99
 #: Metric names of every step (one scalar per world, for the step just taken).
 METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "active_abs_max", "action_l2", "palm_dist",
-           "reward", "nonfinite", "overflow", "episode_return", "episode_length", "q")
+           "reward", "nonfinite", "overflow", "episode_return", "episode_length", "q", "load_cost")
 
 
 @struct.dataclass

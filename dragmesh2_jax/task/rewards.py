@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from dragmesh2_jax.task.config import AramConfig, ReconfigConfig, RewardConfig
+from dragmesh2_jax.task.config import AramConfig, LoadConstraint, ReconfigConfig, RewardConfig
+
+
+def load_excess(wrist_force: jnp.ndarray, limit: float) -> jnp.ndarray:
+    """max(0, |F| - limit) / limit: the wrist's pull beyond what the grasp holds, as a fraction of it."""
+    return jnp.maximum(jnp.linalg.norm(wrist_force) - limit, 0.0) / limit
 
 
 def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp.ndarray, success: jnp.ndarray,
@@ -12,7 +17,7 @@ def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp
     """Every term of r_t. ``action`` (51,) clipped to [-1, 1]; ``d`` palm-handle distance (m); ``dq`` target-joint
     increment q_t - q_{t-1}; ``success``/``detach`` this step's one-shot events; ``wrist_force`` (3,) N."""
     return {
-        "load": -cfg.w_load * jnp.maximum(jnp.linalg.norm(wrist_force) - cfg.f_hold, 0.0) / cfg.f_hold,
+        "load": -cfg.w_load * load_excess(wrist_force, cfg.f_hold),
         "task": cfg.w_task * dq,
         "dist": -cfg.w_dist * d + cfg.w_near * jnp.exp(-cfg.kappa * d),
         "act": -cfg.w_act * jnp.mean(action**2),
@@ -22,6 +27,12 @@ def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp
         "bound": -cfg.w_bound * jnp.mean(jnp.maximum(jnp.abs(action) - cfg.a_sat, 0.0) ** 2),
         "contact": -cfg.w_contact * jnp.maximum(d - cfg.d_safe, 0.0) ** 2,
     }
+
+
+def load_cost(cfg: LoadConstraint, wrist_force: jnp.ndarray) -> jnp.ndarray:
+    """The load constraint's per-step cost c_t (its multiplier weighs it in r_t; its epoch mean moves the
+    multiplier)."""
+    return load_excess(wrist_force, cfg.f_limit)
 
 
 def aram_penalty(cfg: AramConfig, lam, stall, d, action, q_resp, delta, revolute):

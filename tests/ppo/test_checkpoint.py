@@ -1,9 +1,12 @@
 """Checkpoints: Orbax round trip, the learner alone, and a clear error for a mismatched or damaged one."""
 
+import dataclasses
 import shutil
 
 import jax
+import jax.numpy as jnp
 import numpy as np
+import orbax.checkpoint as ocp
 import pytest
 
 from dragmesh2_jax.errors import DragMeshError
@@ -54,3 +57,19 @@ def test_a_checkpoint_of_another_structure_or_a_damaged_one_is_a_clear_error(pro
     with pytest.raises(DragMeshError, match="damaged"):
         load_checkpoint(_init(pica, 0), tmp_path / "pica")
     assert load_checkpoint(_init(pica, 0), tmp_path / "pica", keep_env=True) is not None  # the learner still loads
+
+
+def test_a_checkpoint_from_before_the_load_constraint_restores_with_its_multiplier_at_zero(programs, tmp_path):
+    pica, _ = programs
+    ts = _init(pica, 1).replace(load_lambda=jnp.float32(3.0))
+    save_checkpoint(ts, tmp_path / "ck")
+    learner = ts.replace(env_state=None)  # the learner as a run before the multiplier existed wrote it:
+    learner = {f.name: getattr(learner, f.name) for f in dataclasses.fields(learner) if f.name != "load_lambda"}
+    shutil.rmtree(tmp_path / "ck" / "learner")
+    ck = ocp.StandardCheckpointer()
+    ck.save((tmp_path / "ck" / "learner").absolute(), learner)
+    ck.wait_until_finished()
+    ck.close()
+    old = load_checkpoint(_init(pica, 2), tmp_path / "ck")
+    assert float(old.load_lambda) == 0.0
+    _equal(old.replace(load_lambda=ts.load_lambda), ts)

@@ -1,6 +1,7 @@
-"""Contact-load sensing beyond the paper: the force-aware observation and the privileged critic's inputs,
-and the presets that use them train. The sensors agree between engines within a stated tolerance: MJX-JAX in
-tests/task/test_tracking.py (the expert drag on 45261), MJX-Warp in tests/physics/test_mjx_backend.py."""
+"""Contact-load sensing beyond the paper: the force-aware observation and the privileged critic's inputs, and the
+presets that use them train (the load constraint's multiplier moving by dual ascent). The sensors agree between
+engines within a stated tolerance: MJX-JAX in tests/task/test_tracking.py (the expert drag on 45261), MJX-Warp in
+tests/physics/test_mjx_backend.py."""
 
 import dataclasses
 
@@ -10,13 +11,14 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.methods import get_method, task_overrides
-from dragmesh2_jax.ppo.train import epoch_jit, init_jit
+from dragmesh2_jax.ppo.train import epoch_jit, init_jit, load_lambda_update
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import FORCE_SIZE
-from dragmesh2_jax.task.config import RewardConfig
+from dragmesh2_jax.task.config import LoadConstraint, RewardConfig
 from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, make_batched
-from dragmesh2_jax.task.rewards import reward_terms
+from dragmesh2_jax.task.rewards import load_cost, reward_terms
 from tests.conftest import tiny_program
 
 OBJ = str(default_object())
@@ -49,12 +51,30 @@ def test_force_observation_layout_and_privileged_block():
     assert force[..., 6:].min() >= 0 and force[..., 6:].sum(-1).max() > 1.0  # the grasp touches the handle
 
 
-def test_contact_load_preset_trains_on_the_c_backend():
-    """pica_load = force-aware observation + privileged critic (+ damping [1, 4], perturbed starts)."""
-    program = tiny_program("pica_load", OBJ)
+def test_the_load_constraint_preset_trains_and_dual_ascent_moves_its_multiplier_by_the_epochs_cost():
+    """hold_cmdp = force-aware observation, privileged critic, damping [1, 8], perturbed starts and the wrist load
+    as a CMDP constraint. With a limit the grasp always passes, the epoch's mean cost is over budget and the
+    multiplier rises by lr (J_c - budget); the next epoch's reward carries -lambda c_t."""
+    limit = LoadConstraint(f_limit=1.0, budget=0.0, lr=0.5)
+    task = {"reward": dataclasses.replace(task_overrides(get_method("hold_cmdp"))["reward"], load_constraint=limit)}
+    program = tiny_program("hold_cmdp", OBJ, task=task)
     ts, m = epoch_jit(program, program.task.data, init_jit(program, program.task.data, jax.random.PRNGKey(0)))
     assert np.isfinite(float(m["loss"])) and int(ts.epoch) == 1
     assert float(ts.privileged_stats.count) > 1  # the privileged normaliser saw the batch
+    assert float(m["load_cost"]) > 0
+    assert float(ts.load_lambda) == pytest.approx(min(limit.lr * float(m["load_cost"]), limit.lambda_max))
+    assert float(m["load_lambda"]) == float(ts.load_lambda) and float(ts.aram_lambda) == 0.0
+
+
+def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps_it_in_bounds():
+    c = LoadConstraint(budget=0.01, lr=50.0, lambda_max=20.0)
+    assert float(load_lambda_update(c, 1.0, 0.03)) == pytest.approx(2.0)  # 1 + 50 (0.03 - 0.01)
+    assert float(load_lambda_update(c, 1.0, 0.0)) == pytest.approx(0.5)  # relaxes once the pull is under budget
+    assert float(load_lambda_update(c, 0.1, 0.0)) == 0.0 and float(load_lambda_update(c, 19.0, 1.0)) == 20.0
+    cost = lambda f: float(load_cost(c, jnp.asarray([0.0, f, 0.0])))  # noqa: E731
+    assert cost(0.5 * c.f_limit) == 0.0 and cost(c.f_limit) == 0.0 and cost(1.5 * c.f_limit) == pytest.approx(0.5)
+    with pytest.raises(DragMeshError, match="load constraint"):
+        LoadConstraint(budget=-0.1)
 
 
 def test_load_budget_reward_penalises_only_the_pull_beyond_what_the_grasp_holds():
