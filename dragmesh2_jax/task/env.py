@@ -310,7 +310,7 @@ class PullTask:
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k),
                   step=info["step"])
         zero = jnp.float32(0.0)
-        metrics = {m: zero for m in METRICS}
+        metrics = {m: zero for m in METRICS} | ({"load_cost": zero} if c.reward.load_constraint is not None else {})
         metrics["q"] = k.obj_q.astype(jnp.float32)
         return State(physics=ps, obs=obs, reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
                      truncated=jnp.bool_(False), final_obs=obs, metrics=metrics, info=info)
@@ -366,7 +366,7 @@ class PullTask:
 
     def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray, cost):
         """r_t (paper eq. totalreward, with the load constraint's term, ARAM or Reconfig when configured) and the
-        reward stage's new state. ``cost``: the load constraint's c_t."""
+        reward stage's new state. ``cost``: the load constraint's c_t (None without one)."""
         c, p, info = self.config, self.params, state.info
         terms = reward_terms(c.reward, a, ev.d, ev.q - info["q_prev"], ev.success.astype(jnp.float32),
                              ev.detach.astype(jnp.float32), k.force[:3])
@@ -392,7 +392,7 @@ class PullTask:
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
         lc = c.reward.load_constraint
-        cost = jnp.where(finite, load_cost(lc, k.force[:3]), 0.0) if lc is not None else jnp.float32(0.0)
+        cost = None if lc is None else jnp.where(finite, load_cost(lc, k.force[:3]), 0.0).astype(jnp.float32)
         reward, reward_state = self._reward(state, a, k, ev, finite, cost)
         # observation
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
@@ -412,8 +412,8 @@ class PullTask:
             "action_l2": jnp.linalg.norm(a), "palm_dist": ev.d.astype(jnp.float32), "reward": reward,
             "nonfinite": (~finite).astype(jnp.float32), "overflow": overflow.astype(jnp.float32),
             "episode_return": ep_return,
-            "episode_length": ev.step.astype(jnp.float32), "q": ev.q, "load_cost": cost.astype(jnp.float32),
-        }
+            "episode_length": ev.step.astype(jnp.float32), "q": ev.q,
+        } | ({} if cost is None else {"load_cost": cost})
         return State(physics=ps, obs=obs, reward=reward, done=ev.terminated | ev.truncated, terminated=ev.terminated,
                      truncated=ev.truncated, final_obs=obs, metrics=metrics, info=new_info)
 

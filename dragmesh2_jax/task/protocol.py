@@ -11,7 +11,8 @@ A step reports, per world:
   * ``reward``, ``done`` (terminated or truncated), ``terminated`` (success, detachment, non-finite physics: no
     bootstrap), ``truncated`` (time limit: bootstrap from the value of ``final_obs``);
   * ``obs``: the fields of :class:`Obs` (each policy reads what it may: see ``task/env.py`` for the layout);
-  * ``metrics``: one scalar per name of :data:`METRICS`, belonging to the step just taken.
+  * ``metrics``: one scalar per name of :data:`METRICS`, belonging to the step just taken (and ``load_cost``
+    where the reward has a load constraint).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from flax import struct
 CLIP_LEVEL = 0.99
 #: Metric names of every step (one scalar per world, for the step just taken).
 METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "active_abs_max", "action_l2", "palm_dist",
-           "reward", "nonfinite", "overflow", "episode_return", "episode_length", "q", "load_cost")
+           "reward", "nonfinite", "overflow", "episode_return", "episode_length", "q")
 
 
 @struct.dataclass
