@@ -5,7 +5,8 @@ evaluation's file is named by its protocol (one evaluation never overwrites anot
 
 Starts: by default each episode starts from a perturbed expert grasp (a seeded bank, ``ResetNoise``), so a
 deterministic cell is a distribution over starts and its success a rate; ``starts=None`` is the paper's exact
-reset (a det cell is then one episode repeated).
+reset (a det cell is then one episode repeated). The episodes of a cell start from distinct starts, the first
+``episodes`` of the bank (which holds at least that many), so a det cell of n episodes is n distinct starts.
 """
 
 from __future__ import annotations
@@ -42,12 +43,14 @@ class EvalProtocol:
             raise DragMeshError("episodes per cell must be >= 1")
         if not self.dampings or min(self.dampings) < 0:
             raise DragMeshError(f"damping multipliers must be >= 0, got {self.dampings}")
+        if self.starts is not None and self.starts.bank < self.episodes:  # one distinct start per episode
+            object.__setattr__(self, "starts", dataclasses.replace(self.starts, bank=self.episodes))
 
     @property
     def name(self) -> str:
         """A file-name tag that tells protocols apart: ``x1-2-4_det-stoch_n20_exact_s42``, or with perturbed
-        starts ``..._perturbed-<hash of the ResetNoise>_...``."""
-        starts = "exact" if self.starts is None else "perturbed-" + hashlib.sha1(
+        starts ``..._distinct-<hash of the ResetNoise>_...`` (each episode of a cell its own start)."""
+        starts = "exact" if self.starts is None else "distinct-" + hashlib.sha1(
             json.dumps(dataclasses.asdict(self.starts), sort_keys=True).encode()).hexdigest()[:6]
         return (f"x{'-'.join(f'{d:g}' for d in self.dampings)}_{'-'.join(self.modes)}_n{self.episodes}_{starts}"
                 f"_s{self.seed}")

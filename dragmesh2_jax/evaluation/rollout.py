@@ -1,5 +1,6 @@
 """The one rollout of the evaluator: ``len(dampings) * episodes`` worlds of a task under a policy, each world's damping
-multiplier fixed, all in one compiled program. Cells, traces and video frames are views of its result.
+multiplier fixed and the episodes of a cell each from its own start of the task's bank (the first ``episodes``), all
+in one compiled program. Cells, traces and video frames are views of its result.
 
 Without ``steps`` it runs until every world has finished its first episode (at most the episode length) and returns
 per-world accumulations of that first episode (:func:`cells` reads them). With ``steps`` it runs exactly that many
@@ -37,13 +38,14 @@ class Rollout:
     task: PullTask
     policy: Policy
     scales: tuple[float, ...]  # one damping multiplier per world
+    episodes: int  # per damping: world w starts from start w % episodes of the task's bank (each its own)
     controls: str = "actions"
     steps: int | None = None
     key: Hashable | None = None
 
     def _id(self):
-        return id(self) if self.key is None else (self.key, self.task.signature(), self.scales, self.controls,
-                                                  self.steps)
+        return id(self) if self.key is None else (self.key, self.task.signature(), self.scales, self.episodes,
+                                                  self.controls, self.steps)
 
     def __hash__(self):
         return hash(self._id())
@@ -60,7 +62,7 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
     step = jax.vmap(task.step_target if r.controls == "targets" else task.step)
     kinematics = jax.vmap(task.kinematics)
     k_env, k_act = jax.random.split(key)
-    state = reset(jax.random.split(k_env, n), jnp.asarray(r.scales, jnp.float32))
+    state = reset(jax.random.split(k_env, n), jnp.asarray(r.scales, jnp.float32), jnp.arange(n) % r.episodes)
     acc0 = {k: jnp.zeros(n) for k in ACCUMULATED}
 
     def body(state, live, acc, key):
@@ -106,7 +108,7 @@ def rollout(task: PullTask, policy: Policy, params: Any, dampings: list[float], 
     """Run the rollout; host arrays: ``acc`` (per-world accumulations, see :func:`cells`) and with ``steps`` the
     per-step records ``q``, ``hand_q``, ``obj_q``, ``force`` (the load sensors), ``wrist_load`` (N), ``live`` (steps x
     worlds [x DoFs])."""
-    r = Rollout(task, policy, tuple(float(d) for d in np.repeat(dampings, episodes)), controls, steps, key)
+    r = Rollout(task, policy, tuple(float(d) for d in np.repeat(dampings, episodes)), episodes, controls, steps, key)
     out = jax.tree.map(np.asarray, jax.device_get(_run(r, task.sized(len(r.scales)).data, params,
                                                        jax.random.PRNGKey(seed))))
     task.check_overflow(int(out["acc"]["overflow"].sum()), "evaluation")

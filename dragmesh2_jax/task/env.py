@@ -271,11 +271,12 @@ class PullTask:
                           info["e_ring"].max()]).astype(jnp.float32)
 
     # --------------------------------------------------------------------------------------------- API
-    def reset(self, key: jax.Array, damping_scale: jax.Array | float | None = None) -> State:
+    def reset(self, key: jax.Array, damping_scale: jax.Array | float | None = None, start=None) -> State:
         """A new episode at the expert grasp state (post-settle). The randomised multipliers are drawn
         (``randomize.sample``); the damping multiplier is fixed instead by ``damping_scale`` (or
         ``config.damping_fixed``), and a fixed multiplier is kept by every automatic reset of that world
-        (evaluation cells)."""
+        (evaluation cells). ``start``: the index of the start state (modulo the bank; an evaluation gives each
+        episode of a cell its own), else drawn at random."""
         key, sub = jax.random.split(key)
         scales = randomize.sample(sub, self.config)
         if damping_scale is None and self.config.damping_fixed is not None:
@@ -283,13 +284,15 @@ class PullTask:
         fixed = damping_scale is not None
         if fixed:
             scales[randomize.DAMPING] = jnp.asarray(damping_scale, jnp.float32)
-        return self.reset_world(key, scales, jnp.bool_(fixed))
+        return self.reset_world(key, scales, jnp.bool_(fixed), start)
 
-    def reset_world(self, key: jax.Array, scales: dict, fixed: jax.Array) -> State:
-        """A new episode with these multipliers (``fixed``: the damping multiplier survives automatic resets)."""
+    def reset_world(self, key: jax.Array, scales: dict, fixed: jax.Array, start=None) -> State:
+        """A new episode with these multipliers (``fixed``: the damping multiplier survives automatic resets) from
+        start ``start`` (modulo the bank; None: drawn at random)."""
         c = self.config
         key, k_start = jax.random.split(key)
-        start = jax.random.randint(k_start, (), 0, self.num_starts)
+        start = (jax.random.randint(k_start, (), 0, self.num_starts) if start is None
+                 else jnp.asarray(start, jnp.int32) % self.num_starts)
         ps = self.backend.reset_state(self.data.physics, start)
         k = self.kinematics(ps)
         ctrl = self.data.start_ctrl[start]

@@ -103,10 +103,10 @@ class ObjectMix:
     def _with_object(self, state: State, index) -> State:
         return state.replace(info={**state.info, "object": jnp.asarray(index, jnp.int32)})
 
-    def reset(self, key: jax.Array, damping_scale=None) -> State:
+    def reset(self, key: jax.Array, damping_scale=None, start=None) -> State:
         key, pick = jax.random.split(key)
         index = jax.random.randint(pick, (), 0, self.num_objects)
-        return self._with_object(self.task(index).reset(key, damping_scale), index)
+        return self._with_object(self.task(index).reset(key, damping_scale, start), index)
 
     def restart(self, state: State) -> State:
         """The world's next episode, on an object drawn anew from the world's rng."""

@@ -25,8 +25,8 @@ class AutoReset:
     def signature(self):
         return "auto_reset", self.env.signature()
 
-    def reset(self, key: jax.Array, damping_scale=None) -> State:
-        return self.env.reset(key, damping_scale)
+    def reset(self, key: jax.Array, damping_scale=None, start=None) -> State:
+        return self.env.reset(key, damping_scale, start)
 
     def step(self, state: State, action: jnp.ndarray) -> State:
         return self._restart_finished(self.env.step(state, action))

@@ -1,5 +1,5 @@
 """The evaluation protocol: rates with Wilson intervals, clip099 over all and over active DoFs, a policy
-function as the only interface, det cells that are distributions from perturbed starts."""
+function as the only interface, det cells that are distributions over distinct perturbed starts."""
 
 import dataclasses
 
@@ -63,6 +63,16 @@ def test_cells_report_rates_with_intervals(drawer_task):
     md = markdown_table({"cells": [{**c, "mode": "det"} for c in cells],
                          "robustness": {"det": {"mean_success": 0.5, "worst_success": 0.0, "clip099_active": 0.0}}})
     assert "clip099 active" in md and "[" in md
+
+
+def test_the_episodes_of_a_cell_start_from_distinct_starts_and_every_cell_from_the_same(drawer_task):
+    protocol = dataclasses.replace(PAPER, episodes=40)  # more episodes than the default bank: the bank grows
+    assert PAPER.starts.bank == 32 and protocol.starts.bank == 40 and protocol.name != PAPER.name
+    task = protocol.task(drawer_task)
+    out = rollout(task, _pull_policy(task, 0.0), jnp.float32(1.0), [1.0, 4.0], 40, seed=3, steps=1)
+    hand = np.round(out["hand_q"][0], 6)  # (worlds, 51) before the first step
+    assert len({tuple(h) for h in hand[:40]}) == 40  # x1's 40 episodes: 40 distinct starts
+    np.testing.assert_array_equal(hand[:40], hand[40:])  # x4's episodes from the same 40
 
 
 def test_cells_traces_and_frames_are_views_of_one_rollout(drawer_task):
