@@ -11,8 +11,8 @@ sees damping and contact load), ``pica_d14`` (damping randomised over [1, 4], th
 privileged critic and a load-budget reward, with the paper's damping range. ``hold`` (``--method recommended``) is
 the project's recipe for holding a part under load, ``hold_blind`` the same without force or touch sensing,
 ``hold_grip`` with the fixed load-budget reward and ``hold_cmdp`` with the wrist load as a CMDP constraint (its
-penalty weight a Lagrange multiplier). The task
-itself (action interface, success threshold, damping multipliers, episode length) is the paper's for every method.
+penalty weight a Lagrange multiplier). The task itself (action interface, success threshold, damping multipliers,
+episode length) is the paper's for every method.
 """
 
 from __future__ import annotations
