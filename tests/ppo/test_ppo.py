@@ -42,7 +42,7 @@ class PointMass:
     def _obs(self, x):
         return Obs(state=x, history=jnp.zeros((2, 4)), aux=jnp.zeros(1), privileged=jnp.zeros(1), step=jnp.int32(0))
 
-    def reset(self, key, damping_scale=None):
+    def reset(self, key, damping_scale=None, start=None):  # one start: the position is drawn
         key, k = jax.random.split(key)
         x = jax.random.uniform(k, (2,), minval=-1, maxval=1)
         zero = jnp.float32(0)
