@@ -1,18 +1,18 @@
 """Named methods of the paper (Tables 2 and 3) as presets over one network and one PPO: never code forks.
 
-PICA = GLA temporal encoder + the physical signals: contact/saturation regularisers (r_bound, r_contact),
-damping randomisation and the causal-window auxiliary loss. Baselines use the same observation without the
-physical signals; the two ablations remove one PICA component each.
+PICA = GLA temporal encoder + the physical signals: contact/saturation regularisers (r_bound, r_contact), damping
+randomisation and the causal-window auxiliary loss. Baselines use the same observation without the physical signals;
+the two ablations remove one PICA component each.
 
-Beyond the paper (its §5 asks for a richer contact interface), each a preset ablated against ``pica``:
-``pica_force`` (contact-load sensors in s_t and in the history tokens), ``pica_priv`` (asymmetric critic that
-sees damping and contact load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), and
-``pica_load``, which combines them and trains from perturbed starts, and ``pica_grip``: contact-load observation,
-privileged critic and a load-budget reward, with the paper's damping range. ``hold`` (``--method recommended``) is
-the project's recipe for holding a part under load, ``hold_blind`` the same without force or touch sensing,
-``hold_grip`` with the fixed load-budget reward and ``hold_cmdp`` with the wrist load as a CMDP constraint (its
-penalty weight a Lagrange multiplier). The task itself (action interface, success threshold, damping multipliers,
-episode length) is the paper's for every method.
+Beyond the paper (its §5 asks for a richer contact interface), each a preset ablated against ``pica``: ``pica_force``
+(contact-load sensors in s_t and in the history tokens), ``pica_priv`` (asymmetric critic that sees damping and contact
+load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), and ``pica_load``, which combines them
+and trains from perturbed starts, and ``pica_grip``: contact-load observation, privileged critic and a load-budget
+reward, with the paper's damping range. ``hold`` is PICA trained where the load is (x1-x8, contact load observed),
+``hold_blind`` the same without force or touch sensing, ``hold_grip`` with the fixed load-budget reward and
+``hold_cmdp`` (``--method recommended``, the project's recipe for holding a part under load) with the wrist load as a
+CMDP constraint (its penalty weight a Lagrange multiplier). The task itself (action interface, success threshold,
+damping multipliers, episode length) is the paper's for every method.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ METHODS = {m.name: m for m in (
     Method("pica_grip", "gla", True, "grip-aware PICA: contact-load observation, privileged critic and a load "
            "budget reward (the arm's pull beyond what the grasp holds is penalised)", critic="privileged",
            force_obs=True, w_load=5.0),
-    # the project's recipe for holding a part under load (issue 20; RESULTS.md): trained where the load is
+    # the project's recipes for holding a part under load (issue 20; RESULTS.md): trained where the load is
     Method("hold", "gla", True, "PICA-Hold: contact-load observation, privileged critic, damping randomised over "
            "[1, 8] (the evaluation's x8 inside the training range), perturbed starts", critic="privileged",
            force_obs=True, damping_range=(1.0, 8.0), reset_noise=True),
@@ -75,7 +75,7 @@ METHODS = {m.name: m for m in (
            reset_noise=True),
 )}
 #: ``--method recommended``: the project's best recipe (RESULTS.md says why), wherever a method is taken.
-RECOMMENDED = "hold"
+RECOMMENDED = "hold_cmdp"
 
 
 def resolve(name: str) -> str:
