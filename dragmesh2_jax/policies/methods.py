@@ -9,9 +9,9 @@ Beyond the paper (its §5 asks for a richer contact interface), each a preset ab
 load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), and ``pica_load``, which combines them
 and trains from perturbed starts, and ``pica_grip``: contact-load observation, privileged critic and a load-budget
 reward, with the paper's damping range. ``hold`` is PICA trained where the load is (x1-x8, contact load observed),
-``hold_blind`` the same without force or touch sensing, ``hold_grip`` with the fixed load-budget reward and
-``hold_cmdp`` (``--method recommended``, the project's recipe for holding a part under load) with the wrist load as a
-CMDP constraint (its penalty weight a Lagrange multiplier). The task itself (action interface, success threshold,
+``hold_blind`` (``--method recommended``, the project's recipe for holding a part under load) the same without force
+or touch sensing, ``hold_grip`` with the fixed load-budget reward and ``hold_cmdp`` with the wrist load as a CMDP
+constraint (its penalty weight a Lagrange multiplier). The task itself (action interface, success threshold,
 damping multipliers, episode length) is the paper's for every method.
 """
 
@@ -75,7 +75,7 @@ METHODS = {m.name: m for m in (
            reset_noise=True),
 )}
 #: ``--method recommended``: the project's best recipe (RESULTS.md says why), wherever a method is taken.
-RECOMMENDED = "hold_cmdp"
+RECOMMENDED = "hold_blind"
 
 
 def resolve(name: str) -> str:

@@ -13,12 +13,13 @@ import pytest
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.methods import get_method, task_overrides
-from dragmesh2_jax.ppo.train import load_lambda_update
+from dragmesh2_jax.ppo.train import epoch_jit, init_jit, load_lambda_update
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import FORCE_SIZE
 from dragmesh2_jax.task.config import LoadConstraint, RewardConfig
 from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, make_batched
 from dragmesh2_jax.task.rewards import load_cost, reward_terms
+from tests.conftest import tiny_program
 
 OBJ = str(default_object())
 
@@ -66,6 +67,18 @@ def test_the_load_constraint_weighs_each_steps_cost_by_the_multiplier_the_traine
     assert (cost > 0).all() and np.allclose(paid.metrics["load_cost"], cost)
     np.testing.assert_allclose(paid.reward, free.reward - 2.0 * cost, rtol=1e-5, atol=1e-5)
     assert "load_cost" not in first_step(load_task(OBJ, None, backend="mujoco")).metrics  # off in the paper
+
+
+def test_the_cmdp_preset_trains_and_its_multiplier_takes_one_dual_ascent_step_per_epoch():
+    """hold_cmdp: lambda = clip(0 + lr (J_c - budget), 0, lambda_max) after the first epoch, J_c the epoch's mean
+    cost per step."""
+    program = tiny_program("hold_cmdp", OBJ)
+    limit = program.task.config.reward.load_constraint
+    ts, m = epoch_jit(program, program.task.data, init_jit(program, program.task.data, jax.random.PRNGKey(0)))
+    assert int(ts.epoch) == 1 and np.isfinite(float(m["loss"])) and float(m["load_cost"]) >= 0
+    assert float(ts.load_lambda) == pytest.approx(
+        min(max(limit.lr * (float(m["load_cost"]) - limit.budget), 0.0), limit.lambda_max), abs=1e-6)
+    assert float(m["load_lambda"]) == float(ts.load_lambda) and float(ts.aram_lambda) == 0.0
 
 
 def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps_it_in_bounds():
