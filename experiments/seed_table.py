@@ -3,8 +3,9 @@ error over seeds with every seed's value (RESULTS.md's layout for the project's 
 
     python experiments/seed_table.py OUT [OUT ...] [--methods hold,pica_load] [--out table.md] [--title TEXT]
 
-OUT: a ``reproduce`` output folder (its ``runs/<object>/<method>_s<seed>/evaluations/*.json``). Every evaluation
-file of one protocol is read; several protocols in one folder are an error (the table would mix them).
+OUT: a ``reproduce`` output folder (its ``runs/<object>/<method>_s<seed>/evaluations/*.json``) or a folder of
+evaluation files (as committed under results/). Every evaluation file is read; evaluations of several protocols are
+an error (the table would mix them).
 """
 
 from __future__ import annotations
@@ -23,9 +24,12 @@ def load(folders: list[Path]) -> tuple[dict, set]:
     table: dict = defaultdict(lambda: defaultdict(lambda: defaultdict(dict)))
     protocols = set()
     for folder in folders:
-        for f in sorted(folder.glob("runs/*/*/evaluations/*.json")):
+        for f in sorted([*folder.glob("runs/*/*/evaluations/*.json"), *folder.glob("*.json")]):
             r = json.loads(f.read_text())
-            protocols.add(f.stem.split("__", 1)[-1])
+            p = r["protocol"]
+            starts = "exact starts" if p["starts"] is None else (f"perturbed starts (bank {p['starts']['bank']}, "
+                                                                 f"seed {p['starts']['seed']})")
+            protocols.add(f"{p['episodes']} episodes per cell, {starts}, evaluation seed {p['seed']}")
             for c in r["cells"]:
                 table[r["object"]][(r["label"], c["mode"])][c["damping"]][r["seed"]] = c["success_rate"]
     return table, protocols
