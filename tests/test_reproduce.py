@@ -11,6 +11,7 @@ import pytest
 from dragmesh2_jax import reproduce as reproduce_lib
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.reproduce import PAPER_CELLS, PAPER_OBJECTS, TABLES, Eval, ReproduceConfig, Run, plan, reproduce
 from tests.conftest import installed_command
 
@@ -49,18 +50,21 @@ def test_plans_follow_the_paper():
 def test_the_generalist_plan_gives_one_policy_the_specialists_budget():
     """One policy per seed over the training objects, for as many epochs as the specialists of every object
     together; evaluated zero-shot on each object (best_robust and final, in files of their own), fine-tuned onto
-    each for 20 epochs, beside each object's specialist. Without --methods it is the project's recipe."""
+    each for 20 epochs, beside each object's specialist. Without --methods it is the project's recipe; without
+    --episodes each cell has the project's 100 episodes (the paper's tables keep its 20)."""
     c = ReproduceConfig(objects=("a", "b"), seeds=(0, 1, 2), epochs=150)
     steps = plan("generalist", c)
     runs = [s for s in steps if isinstance(s, Run)]
     general = [r for r in runs if r.generalist]
-    assert len(general) == 3 and {(r.method, r.epochs) for r in general} == {("hold", 300)}
+    assert len(general) == 3 and {(r.method, r.epochs) for r in general} == {(RECOMMENDED, 300)}
     tuned = {(r.object, r.epochs, r.recipe) for r in runs if r.parent is not None}
     assert tuned == {("a", 320, "continued"), ("b", 320, "continued")}
     assert {(r.object, r.epochs) for r in runs if not r.generalist and r.parent is None} == {("a", 150), ("b", 150)}
     evals = [s for s in steps if isinstance(s, Eval)]
-    assert {s.label for s in evals} == {"hold", "generalist_hold", "generalist_hold@300",
-                                        "generalist_hold+continued@320"}
+    r = RECOMMENDED
+    assert {s.label for s in evals} == {r, f"generalist_{r}", f"generalist_{r}@300", f"generalist_{r}+continued@320"}
+    assert all(s.project and "_n100_" in s.path(Path("rep"), c).name for s in evals)
+    assert not any(s.project for s in plan("main", c) if isinstance(s, Eval)) and c.protocol().episodes == 20
     zero = [s for s in evals if s.zero_shot]
     assert len(zero) == 3 * 2 * 2  # seeds x objects x (best_robust, final)
     out = Path("rep")
@@ -81,7 +85,8 @@ def test_the_scaling_plan_trains_every_size_for_one_budget_and_reads_it_along_th
     assert {r.epochs for r in runs} == {300} and c.scaling_epochs == [100, 200, 300]
     evals = [s for s in steps if isinstance(s, Eval)]
     assert len(evals) == len(runs) * 3 * 2 and all(s.zero_shot for s in evals)
-    assert {s.label for s in evals if s.run.train_objects == 8} == {f"generalist_hold_n8@{e}" for e in (100, 200, 300)}
+    assert {s.label for s in evals if s.run.train_objects == 8} == {
+        f"generalist_{RECOMMENDED}_n8@{e}" for e in (100, 200, 300)}
     out = Path("rep")
     assert len({s.path(out, c) for s in evals}) == len(evals)
     assert len({s.checkpoint_path(out) for s in evals}) == len(evals) // 2  # one checkpoint, every object
@@ -154,9 +159,10 @@ def test_every_table_runs_its_plan_and_an_interrupted_reproduction_resumes(tmp_p
     assert {r["label"] for r in res} == {"gla_only", "pica_flat", "pica"}
     assert "pica+both+continued" in (out / "continued.md").read_text()
     assert "| pica+continued (7 ep) |" in (out / "train-length.md").read_text()  # 500 epochs at 2/150 scale
-    assert "| generalist_hold+continued@22 | x4 |" in (out / "generalist.md").read_text()
+    assert f"| generalist_{RECOMMENDED}+continued@22 | x4 |" in (out / "generalist.md").read_text()
     scaling = (out / "scaling.md").read_text()
-    assert "| generalist_hold_n277@2 | x4 |" in scaling and (out / "scaling.png").read_bytes()[:4] == b"\x89PNG"
+    assert f"| generalist_{RECOMMENDED}_n277@2 | x4 |" in scaling
+    assert (out / "scaling.png").read_bytes()[:4] == b"\x89PNG"
     # a larger budget: the runs are trained on and evaluated again, the controllers' evaluations are kept
     bigger = dataclasses.replace(TINY, epochs=3)
     n_train, n_eval = len(fake.trained), len(fake.evaluated)
@@ -178,7 +184,7 @@ def test_one_real_table_on_a_tiny_preset(tmp_path):
     assert f"videos/{video.name}" in table and video.stat().st_size > 0
     run = Run(c.objects[0], 0, c.epochs, method="pica").folder(tmp_path)
     assert run.trained_epochs() == 2 and run.spec().method == "pica"
-    result = run.evaluation(run.checkpoint("best_robust"), c.protocol)
+    result = run.evaluation(run.checkpoint("best_robust"), c.protocol())
     assert [cell["damping"] for cell in result["cells"]] == [1.0, 2.0, 4.0, 8.0] * 2
 
 
