@@ -350,6 +350,7 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
     if table not in TABLES:
         raise DragMeshError(f"unknown table {table!r} (choose from {', '.join(TABLES)}, all)")
     steps: list[Run | Eval] = []
+    project = table in PROJECT_TABLES  # its cells take the project's protocol
     if table in ("main", "ablation"):
         known = baseline_controllers()
         rows = c.methods or ((TRACKING, PARALLEL_JAW, *MAIN_METHODS) if table == "main" else ABLATION_METHODS)
@@ -371,7 +372,7 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
                     special = Run(obj, s, c.epochs, method=m)
                     tuned = Run(obj, s, general.epochs + GENERALIST_FINETUNE_EPOCHS, parent=general,
                                 recipe="continued")
-                    cell = functools.partial(Eval, obj, seed=s, project=True)
+                    cell = functools.partial(Eval, obj, seed=s, project=project)
                     steps += [cell(general), cell(general, "final"), special, cell(special), tuned,
                               cell(tuned, "final")]
         return steps
@@ -380,7 +381,7 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
             for m in generalist_methods(c):
                 for n in c.scaling:
                     run = Run("scaling_dataset", s, c.generalist_epochs, method=m, generalist=True, train_objects=n)
-                    steps += [run, *(Eval(obj, run, "final", seed=s, epoch=e, project=True) for e in c.scaling_epochs
+                    steps += [run, *(Eval(obj, run, "final", seed=s, epoch=e, project=project) for e in c.scaling_epochs
                                      for obj in c.objects)]
         return steps
     obj = c.objects[0]
