@@ -10,9 +10,10 @@ load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), a
 and trains from perturbed starts, and ``pica_grip``: contact-load observation, privileged critic and a load-budget
 reward, with the paper's damping range. ``hold`` is PICA trained where the load is (x1-x8, contact load observed),
 ``hold_blind`` (``--method recommended``, the project's recipe for holding a part under load) the same without force
-or touch sensing, ``hold_grip`` with the fixed load-budget reward and ``hold_cmdp`` with the wrist load as a CMDP
-constraint (its penalty weight a Lagrange multiplier). The task itself (action interface, success threshold,
-damping multipliers, episode length) is the paper's for every method.
+or touch sensing, ``hold_grip`` with the fixed load-budget reward, ``hold_cmdp`` with the wrist load as a CMDP
+constraint (its penalty weight a Lagrange multiplier) and ``hold_blind_cmdp`` the constraint without the sensing.
+The task itself (action interface, success threshold, damping multipliers, episode length) is the paper's for every
+method.
 """
 
 from __future__ import annotations
@@ -73,6 +74,9 @@ METHODS = {m.name: m for m in (
     Method("hold_blind", "gla", True, "PICA-Hold without force or touch sensing (the paper's observation): "
            "privileged critic, damping [1, 8], perturbed starts", critic="privileged", damping_range=(1.0, 8.0),
            reset_noise=True),
+    Method("hold_blind_cmdp", "gla", True, "PICA-Hold without force or touch sensing and with the wrist load as a "
+           "CMDP constraint (the load is seen by the critic and the cost, never by the policy)",
+           critic="privileged", damping_range=(1.0, 8.0), reset_noise=True, load_constraint=LoadConstraint()),
 )}
 #: ``--method recommended``: the project's best recipe (RESULTS.md says why), wherever a method is taken.
 RECOMMENDED = "hold_blind"

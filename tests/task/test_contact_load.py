@@ -69,11 +69,12 @@ def test_the_load_constraint_weighs_each_steps_cost_by_the_multiplier_the_traine
     assert "load_cost" not in first_step(load_task(OBJ, None, backend="mujoco")).metrics  # off in the paper
 
 
-def test_the_cmdp_preset_trains_and_its_multiplier_takes_one_dual_ascent_step_per_epoch():
-    """hold_cmdp: lambda = clip(0 + lr (J_c - budget), 0, lambda_max) after the first epoch, J_c the epoch's mean
-    cost per step."""
-    program = tiny_program("hold_cmdp", OBJ)
+def test_the_blind_cmdp_preset_trains_and_its_multiplier_takes_one_dual_ascent_step_per_epoch():
+    """hold_blind_cmdp (the policy never observes the load; the cost and the critic do): lambda = clip(0 + lr (J_c -
+    budget), 0, lambda_max) after the first epoch, J_c the epoch's mean cost per step."""
+    program = tiny_program("hold_blind_cmdp", OBJ)
     limit = program.task.config.reward.load_constraint
+    assert limit == get_method("hold_cmdp").load_constraint and not program.task.config.force_obs
     ts, m = epoch_jit(program, program.task.data, init_jit(program, program.task.data, jax.random.PRNGKey(0)))
     assert int(ts.epoch) == 1 and np.isfinite(float(m["loss"])) and float(m["load_cost"]) >= 0
     assert float(ts.load_lambda) == pytest.approx(
