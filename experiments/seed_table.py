@@ -24,7 +24,8 @@ def load(folders: list[Path]) -> tuple[dict, set]:
     table: dict = defaultdict(lambda: defaultdict(lambda: defaultdict(dict)))
     protocols = set()
     for folder in folders:
-        for f in sorted([*folder.glob("runs/*/*/evaluations/*.json"), *folder.glob("*.json")]):
+        runs = (folder / "runs").is_dir()  # a reproduce folder: its own records (main.json, ...) are not evaluations
+        for f in sorted(folder.glob("runs/*/*/evaluations/*.json" if runs else "*.json")):
             r = json.loads(f.read_text())
             p = r["protocol"]
             starts = "exact starts" if p["starts"] is None else (f"perturbed starts (bank {p['starts']['bank']}, "

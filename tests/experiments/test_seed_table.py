@@ -25,6 +25,7 @@ def _run(*args) -> subprocess.CompletedProcess:
 def test_a_cell_is_the_mean_and_standard_error_over_seeds_with_every_seeds_value(tmp_path):
     for seed, x8 in enumerate((0.0, 0.5, 1.0)):
         _evaluation(tmp_path, "hold", seed, {1.0: 1.0, 8.0: x8})
+    (tmp_path / "main.json").write_text(json.dumps({"table": "main"}))  # reproduce's own record beside its runs
     res = _run(tmp_path, "--out", tmp_path / "t.md")
     assert res.returncode == 0 and "50 episodes per cell, perturbed starts (bank 32" in res.stdout
     row = next(line for line in (tmp_path / "t.md").read_text().splitlines() if line.startswith("| hold | det"))
