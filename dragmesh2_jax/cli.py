@@ -37,6 +37,7 @@ from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.finetune import FINETUNES
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
 from dragmesh2_jax.reproduce import (
+    CHECKPOINTS,
     GENERALIST_HOLDOUT,
     GENERALIST_OBJECTS,
     SCALING_OBJECTS,
@@ -329,7 +330,7 @@ def cmd_reproduce(args) -> int:
                              dampings=tuple(_dampings(args.damping)), train_objects=args.train_objects,
                              dataset=args.dataset, holdout=args.holdout, video_every=args.video_every,
                              scaling=tuple(int(n) for n in parse_floats(args.scaling, "--scaling", minimum=1)),
-                             modes=tuple(_modes(args.mode)))
+                             modes=tuple(_modes(args.mode)), checkpoint=args.checkpoint)
     for path in reproduce(args.tables, config, args.out, progress=not args.quiet, run=not args.tables_only):
         print(path.read_text())
         _err(f"table: {path}")
@@ -598,6 +599,9 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--scaling", default=_csv(SCALING_OBJECTS),
                      help="scaling: training-set sizes (nested procedural objects in the Table 1 mix)")
     prp.add_argument("--mode", default=",".join(PAPER.modes), help="evaluation modes of trained runs (det, stoch)")
+    prp.add_argument("--checkpoint", default="best_robust", choices=CHECKPOINTS,
+                     help="main/ablation: evaluate each run's best_robust checkpoint (the paper's selection) or its "
+                          "final one (rows then read METHOD@EPOCHS)")
     prp.add_argument("--video-every", type=int, default=VIDEO_EVERY,
                      help="control steps between video frames of each method's video (0: no videos)")
     prp.add_argument("--out", default="out/reproduce")

@@ -26,7 +26,8 @@ Tables (the paper's numbering):
                  thirds and all of it evaluated zero-shot on each object (``scaling.png``).
 Epoch counts are the paper's at ``epochs=150`` and scale with ``epochs`` (a tiny preset keeps the shape).
 Main and ablation cells evaluate each run's ``best_robust`` checkpoint (selected by robustness during
-training); the appendix tables evaluate the checkpoint at the named epoch. The diagnostic object is the first.
+training), or with ``checkpoint="final"`` (``--checkpoint final``) its last; the appendix tables evaluate the
+checkpoint at the named epoch. The diagnostic object is the first.
 ``methods`` (``--methods``) replaces the rows of main and ablation: a subset of the paper's, or presets beyond it.
 
 Outputs: ``<table>.md`` (the paper's layout: det/stoch per object as mean ± standard error over seeds, Avg, and
@@ -80,6 +81,7 @@ GENERALIST_OBJECTS = 32  # procedural training objects of the generalist (Table 
 GENERALIST_HOLDOUT = 2  # of them, held aside for its best_robust selection
 GENERALIST_OBJECT_SEED = 1000  # first seed of those procedural objects (the packaged ones use seeds 0 and 213)
 SCALING_OBJECTS = (1, 8, 32, 128, 277)  # training-set sizes of the scaling table (277: the paper's Table 1)
+CHECKPOINTS = ("best_robust", "final")  # what a main or ablation cell may evaluate of each run
 SCALING_POINTS = 3  # checkpoints of each scaling run evaluated, evenly along its budget
 TABLES = ("main", "ablation", "train-length", "ood", "continued", "damping-range", "generalist", "scaling")
 PROJECT_TABLES = ("generalist", "scaling")  # beyond the paper: evaluated with PROJECT_EPISODES per cell by default
@@ -205,6 +207,9 @@ class ReproduceConfig:
     holdout: int = GENERALIST_HOLDOUT  # generalist: training objects held aside for best_robust
     scaling: tuple[int, ...] = SCALING_OBJECTS  # scaling: the training-set sizes
     modes: tuple[str, ...] = MODES  # the evaluation modes of trained runs (controllers are det only)
+    # the checkpoint of each run a main or ablation cell evaluates: best_robust (selected during training by the
+    # paper's robustness protocol) or final (the run's last epoch)
+    checkpoint: str = "best_robust"
 
     def __post_init__(self):
         if not self.objects:
@@ -228,6 +233,8 @@ class ReproduceConfig:
                                 f"and {self.holdout}")
         if not self.scaling or min(self.scaling) < 1 or len(set(self.scaling)) < len(self.scaling):
             raise DragMeshError(f"the scaling table needs distinct training-set sizes >= 1, got {self.scaling}")
+        if self.checkpoint not in CHECKPOINTS:
+            raise DragMeshError(f"checkpoint must be one of {', '.join(CHECKPOINTS)}, got {self.checkpoint!r}")
         if not self.modes or not set(self.modes) <= set(MODES):
             raise DragMeshError(f"evaluation modes must be some of {', '.join(MODES)}, got {self.modes}")
 
@@ -361,7 +368,7 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
             for m in methods:
                 for s in c.seeds:
                     r = Run(obj, s, c.epochs, method=m)
-                    steps += [r, Eval(obj, r, seed=s)]
+                    steps += [r, Eval(obj, r, c.checkpoint, seed=s)]
         return steps
     if table == "generalist":
         for m in generalist_methods(c):

@@ -45,6 +45,12 @@ def test_plans_follow_the_paper():
         assert {s.label for s in plan(table, rows) if isinstance(s, Eval)} == set(extra)
     with pytest.raises(DragMeshError, match="pica_typo"):
         ReproduceConfig(objects=("a",), methods=("pica_typo",))
+    # the final checkpoint instead of the paper's selection: rows read METHOD@EPOCHS
+    final = ReproduceConfig(objects=("a",), seeds=(0,), methods=("pica_load",), epochs=300, checkpoint="final")
+    (ev,) = [s for s in plan("main", final) if isinstance(s, Eval)]
+    assert (ev.checkpoint, ev.at, ev.label) == ("final", 300, "pica_load@300")
+    with pytest.raises(DragMeshError, match="checkpoint"):
+        ReproduceConfig(objects=("a",), checkpoint="best")
 
 
 def test_the_generalist_plan_gives_one_policy_the_specialists_budget():
