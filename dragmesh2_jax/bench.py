@@ -15,9 +15,11 @@ import numpy as np
 
 from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.physics.mjx_backend import require_impl
 from dragmesh2_jax.ppo.train import TrainProgram, epoch_jit, epoch_runs, init_jit, init_runs, run_mesh, seed_keys
 from dragmesh2_jax.runs.build import load_task, mix_of, program_of
 from dragmesh2_jax.runs.spec import method_spec
+from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask, make_batched
 from dragmesh2_jax.task.wrappers import AutoReset
 
@@ -162,6 +164,10 @@ def bench_env_sweep(objects: list[str] | None, trajectory: str | None, backends:
     row as it is measured."""
     rows = []
     engines = [(b, i) for b in backends for i in (impls if b == "mjx" else ("jax",))]
+    for backend, impl in engines:  # every engine asked for can run, before anything is measured
+        TaskConfig(backend=backend, impl=impl)
+        if backend == "mjx":
+            require_impl(impl)
     objects = objects or [str(default_object())]
     for backend, impl in engines:
         task = mix_of([load_task(o, trajectory if len(objects) == 1 else None, backend, impl) for o in objects])
@@ -202,7 +208,12 @@ COLLAPSE_WINDOW = 5  # trailing epochs in which detachment and progress both nea
 COLLAPSE_LEVEL = 0.05
 
 
-def learning_curves(objects: list[str], method: str = "pica", epochs: int = 40, seeds: tuple[int, ...] = (0, 1, 2),
+#: What ``bench learning`` trains when nothing is recorded or given: a short curve per seed.
+LEARNING_METHOD, LEARNING_EPOCHS, LEARNING_SEEDS = "pica", 40, (0, 1, 2)
+
+
+def learning_curves(objects: list[str], method: str = LEARNING_METHOD, epochs: int = LEARNING_EPOCHS,
+                    seeds: tuple[int, ...] = LEARNING_SEEDS,
                     backend: str = "mujoco", report=None) -> dict:
     """Per object, ``method`` trained ``epochs`` epochs from each seed (the seeds as one program) with the paper's
     batch: the training success, progress and detachment of every epoch and seed. ``report(object, row)`` sees the

@@ -13,6 +13,9 @@ from pathlib import Path
 
 from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.bench import (
+    LEARNING_EPOCHS,
+    LEARNING_METHOD,
+    LEARNING_SEEDS,
     bench_env_sweep,
     bench_soak_sweep,
     bench_train_sweep,
@@ -20,7 +23,7 @@ from dragmesh2_jax.bench import (
     learning_regressions,
 )
 from dragmesh2_jax.demo import run_demo
-from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.errors import DragMeshError, NotSaved
 from dragmesh2_jax.evaluation.evaluate import (
     ENVELOPE_DAMPINGS,
     ENVELOPE_PACES,
@@ -29,7 +32,7 @@ from dragmesh2_jax.evaluation.evaluate import (
     markdown_table,
 )
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
-from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.io import atomic_write_json, os_error_line
 from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
 from dragmesh2_jax.policies.methods import METHODS
 from dragmesh2_jax.policies.networks import NetworkConfig
@@ -46,6 +49,7 @@ from dragmesh2_jax.reproduce import (
     reproduce,
 )
 from dragmesh2_jax.runs.commands import (
+    DEFAULT_METHOD,
     dataset_objects,
     describe_object,
     evaluate_baseline,
@@ -69,7 +73,35 @@ def _csv(values) -> str:
 
 
 def _dampings(text: str, what: str = "--damping") -> list[float]:
-    return parse_floats(text, what, minimum=0.0)
+    return parse_floats(text, what, above=0.0)
+
+
+def _whole(minimum: int):
+    """An argparse type: a whole number >= ``minimum``, refused when parsed (one error line, exit 2)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"a whole number expected, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        return value
+    parse.__name__ = f"int>={minimum}"
+    return parse
+
+
+POSITIVE, NONNEGATIVE = _whole(1), _whole(0)
+
+
+def _damping(text: str) -> float:
+    """An argparse type: one damping multiplier (> 0)."""
+    try:
+        (value,) = _dampings(text)
+    except DragMeshError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"one damping multiplier expected, got {text!r}") from None
+    return value
 
 
 def _modes(text: str) -> list[str]:
@@ -201,14 +233,23 @@ def cmd_bench_train(args) -> int:
 
 def cmd_bench_learning(args) -> int:
     recorded = None
+    seeds = None if args.seeds is None else tuple(int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0))
     if args.against:
         recorded = _read_json(args.against)
         objects = args.objects or list(recorded["curves"])
+        differ = []
+        for k, v in (("method", args.method), ("epochs", args.epochs), ("seeds", seeds)):
+            want = tuple(recorded[k]) if k == "seeds" else recorded[k]
+            if v is not None and v != want:
+                differ.append(f"--{k} {_show(v)} (recorded {_show(want)})")
+        if differ:
+            raise DragMeshError(f"--against {args.against} compares with the recorded curves, so it takes their "
+                                f"method, epochs and seeds: {'; '.join(differ)} (drop them, or --record new curves)")
         method, epochs, seeds = recorded["method"], recorded["epochs"], tuple(recorded["seeds"])
     else:
         objects = args.objects or [str(procedural.packaged_object(procedural.HEAVY_DRAWER))]
-        method, epochs = args.method, args.epochs
-        seeds = tuple(int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0))
+        method, epochs = args.method or LEARNING_METHOD, args.epochs or LEARNING_EPOCHS
+        seeds = seeds or LEARNING_SEEDS
     current = learning_curves(objects, method, epochs, seeds, args.backend, report=lambda o, r: _err(
         f"{Path(o).name:>20s} epoch {r['epoch']:3d}  success {r['success']:.2f}  progress {r['progress']:.2f}  "
         f"detach {r['detach']:.2f}"))
@@ -221,6 +262,10 @@ def cmd_bench_learning(args) -> int:
     if not problems:
         print(f"no learning regression ({len(objects)} objects x {len(seeds)} seeds x {epochs} epochs)")
     return 1 if problems else 0
+
+
+def _show(value) -> str:
+    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
 
 
 def _read_json(path: str) -> dict:
@@ -247,10 +292,8 @@ def _add_backend_args(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_train(args) -> int:
-    if args.robust_every < 0:
-        raise DragMeshError("--robust-every must be >= 0")
     seeds = None
-    if args.seeds:
+    if args.seeds is not None:
         seeds = parse_floats(args.seeds, "--seeds", minimum=0)
         if any(s != int(s) for s in seeds) or len(set(seeds)) < len(seeds):
             raise DragMeshError(f"--seeds: distinct whole numbers expected, got {args.seeds!r}")
@@ -304,8 +347,12 @@ def cmd_evaluate(args) -> int:
     if bool(args.checkpoint) == bool(args.method):
         raise DragMeshError("give --checkpoint (a trained run) or --method with --object (a controller), not both")
     if args.checkpoint:
-        result, path = evaluate_checkpoint(args.checkpoint, protocol, _engine(args.backend), args.impl, args.object,
-                                           args.trajectory)
+        try:
+            result, path = evaluate_checkpoint(args.checkpoint, protocol, _engine(args.backend), args.impl,
+                                               args.object, args.trajectory)
+        except NotSaved as e:  # computed, not saved: printed whole, then the one error line
+            print(json.dumps(e.result, indent=1) if args.json else markdown_table(e.result))
+            raise
         _err(f"evaluation: {path}")
     else:
         result = evaluate_baseline(args.method, args.object, args.trajectory, protocol, args.backend, args.impl)
@@ -402,7 +449,13 @@ def add_config_args(p: argparse.ArgumentParser, skip: tuple[str, ...] = ()) -> N
             if parse is None or f"{prefix}.{f.name}" in skip:
                 continue
             g.add_argument(f"--{prefix}.{f.name.replace('_', '-')}", dest=f"{prefix}__{f.name}", type=parse,
-                           default=argparse.SUPPRESS, metavar=f.type if isinstance(f.type, str) else None)
+                           default=argparse.SUPPRESS, metavar=f.type if isinstance(f.type, str) else None,
+                           help=f"default: the method's; {cls.__name__}'s {_csv_value(f.default)}")
+
+
+def _csv_value(value) -> str:
+    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value).lower() if isinstance(
+        value, bool) else str(value)
 
 
 def config_changes(args, prefix: str) -> dict:
@@ -410,8 +463,24 @@ def config_changes(args, prefix: str) -> dict:
     return {k.split("__", 1)[1]: v for k, v in vars(args).items() if k.startswith(f"{prefix}__")}
 
 
+class _Help(argparse.HelpFormatter):
+    """Every option's default in its help, unless the help says it already (a default that depends on the method,
+    the run or the machine) or there is none to show."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if not action.option_strings or "default" in text or any(action.default is d for d in
+                                                                   (None, False, argparse.SUPPRESS)):
+            return text
+        return f"{text} (default: %(default)s)".strip()
+
+
 class _Parser(argparse.ArgumentParser):
-    """Usage errors as one line ``error: ...`` and status 2, like every other bad input."""
+    """Usage errors as one line ``error: ...`` and status 2, like every other bad input; every default in --help."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _Help)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         print(f"error: {self.prog}: {message}", file=sys.stderr)
@@ -434,8 +503,8 @@ def build_parser() -> argparse.ArgumentParser:
     osub = po.add_subparsers(dest="objects_cmd", required=True)
     ps = osub.add_parser("synth", help="write procedural objects")
     ps.add_argument("--category", required=True, help="a category or 'all'")
-    ps.add_argument("--count", type=int, default=1)
-    ps.add_argument("--seed", type=int, default=0)
+    ps.add_argument("--count", type=POSITIVE, default=1, help="objects per category")
+    ps.add_argument("--seed", type=int, default=0, help="seed of the first object (each next one: +1)")
     ps.add_argument("--out", required=True)
     osub.add_parser("list", help="categories and the packaged default objects")
     po.set_defaults(func=cmd_objects)
@@ -451,7 +520,7 @@ def build_parser() -> argparse.ArgumentParser:
     dsub = pds.add_subparsers(dest="dataset_cmd", required=True)
     pb = dsub.add_parser("build", help="one trajectory per object folder; resumable")
     pb.add_argument("--objects", nargs="*", default=[], help="object folders or folders of object folders")
-    pb.add_argument("--procedural", type=int, default=0, metavar="N",
+    pb.add_argument("--procedural", type=NONNEGATIVE, default=0, metavar="N",
                     help="also N procedural objects in the paper's Table 1 category mix (277: the paper's counts)")
     pb.add_argument("--seed", type=int, default=0, help="first seed of the procedural objects")
     pb.add_argument("--out", required=True)
@@ -464,9 +533,10 @@ def build_parser() -> argparse.ArgumentParser:
     pbenv.add_argument("--object", help="object folder (default: the packaged drawer); several, comma-separated: one "
                                         "batch mixing them (each world steps one), as training over several objects")
     pbenv.add_argument("--trajectory")
-    pbenv.add_argument("--num-envs", default="1,16,64,256")
-    pbenv.add_argument("--steps", type=int, default=50, help="control steps per timed run")
-    pbenv.add_argument("--mjx-steps", type=int, help="control steps for the MJX backend (slow on a CPU)")
+    pbenv.add_argument("--num-envs", default="1,16,64,256", help="batch sizes, comma-separated")
+    pbenv.add_argument("--steps", type=POSITIVE, default=50, help="control steps per timed run")
+    pbenv.add_argument("--mjx-steps", type=POSITIVE, help="control steps for the MJX backend (slow on a CPU; "
+                                                          "default: --steps)")
     pbenv.add_argument("--json", action="store_true")
     _add_backend_args(pbenv)
     pbenv.set_defaults(func=cmd_bench)
@@ -474,19 +544,19 @@ def build_parser() -> argparse.ArgumentParser:
                                          "--runs N: N seeds as one vmapped program")
     pbtr.add_argument("--object", help="object folder(s), comma-separated (default: the packaged drawer); a second "
                                        "object of the same structure reuses the compiled program")
-    pbtr.add_argument("--method", default="pica")
-    pbtr.add_argument("--num-envs", default="64")
+    pbtr.add_argument("--method", default="pica", help="the method preset trained")
+    pbtr.add_argument("--num-envs", default="64", help="batch sizes, comma-separated")
     pbtr.add_argument("--runs", default="1", help="seeds trained as one program (comma-separated list of counts)")
-    pbtr.add_argument("--epochs", type=int, default=3, help="timed epochs after the compiling one")
+    pbtr.add_argument("--epochs", type=POSITIVE, default=3, help="timed epochs after the compiling one")
     pbtr.add_argument("--json", action="store_true")
     _add_backend_args(pbtr)
     pbtr.set_defaults(func=cmd_bench_train)
     pbs = bsub.add_parser("soak", help="random actions at damping x1..x8: worlds that go non-finite (isolated)")
     pbs.add_argument("--objects", nargs="+", help="object folders (default: the packaged drawer)")
-    pbs.add_argument("--damping", default="1,2,4,8")
-    pbs.add_argument("--num-envs", type=int, default=64, help="worlds per damping")
-    pbs.add_argument("--steps", type=int, default=250, help="control steps per world")
-    pbs.add_argument("--seed", type=int, default=0)
+    pbs.add_argument("--damping", default="1,2,4,8", help="damping multipliers, comma-separated (> 0)")
+    pbs.add_argument("--num-envs", type=POSITIVE, default=64, help="worlds per damping")
+    pbs.add_argument("--steps", type=POSITIVE, default=250, help="control steps per world")
+    pbs.add_argument("--seed", type=int, default=0, help="seed of the random actions")
     pbs.add_argument("--json", action="store_true")
     _add_backend_args(pbs)
     pbs.set_defaults(func=cmd_bench_soak)
@@ -497,32 +567,34 @@ def build_parser() -> argparse.ArgumentParser:
     pbl.add_argument("--against", metavar="FILE.json", help="recorded curves to compare with (their method, epochs "
                                                             "and seeds are used)")
     pbl.add_argument("--record", metavar="FILE.json", help="write the curves measured now")
-    pbl.add_argument("--method", default="pica")
-    pbl.add_argument("--epochs", type=int, default=40)
-    pbl.add_argument("--seeds", default="0,1,2")
+    pbl.add_argument("--method", help=f"default: the recorded curves', else {LEARNING_METHOD}")
+    pbl.add_argument("--epochs", type=POSITIVE, help=f"default: the recorded curves', else {LEARNING_EPOCHS}")
+    pbl.add_argument("--seeds", help=f"default: the recorded curves', else {_show(LEARNING_SEEDS)}")
     pbl.add_argument("--tolerance", type=float, default=0.2, help="allowed drop of final training success")
-    pbl.add_argument("--backend", default="mujoco")
+    pbl.add_argument("--backend", default="mujoco", help="mjx | mujoco | auto")
     pbl.set_defaults(func=cmd_bench_learning)
 
     ptr = sub.add_parser("train", help="train a policy with PPO")
-    ptr.add_argument("--method", default="pica", help="recommended | " + " | ".join(METHODS))
+    ptr.add_argument("--method", help=f"default: {DEFAULT_METHOD} (a resumed run: its own) | recommended | "
+                                      + " | ".join(METHODS))
     ptr.add_argument("--object", help="object folder")
     ptr.add_argument("--objects", nargs="+", metavar="FOLDER", help="several object folders: one policy over all of "
                                                                     "them (each world draws one at every reset)")
     ptr.add_argument("--dataset", help="a folder written by dataset build: its objects whose trajectory passed")
-    ptr.add_argument("--holdout", type=int, default=0, help="of several objects, the last this many are held aside: "
-                                                            "best_robust is chosen on them")
+    ptr.add_argument("--holdout", type=NONNEGATIVE, default=0,
+                     help="of several objects, the last this many are held aside: best_robust is chosen on them")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
     ptr.add_argument("--out", required=True, help="run folder")
-    ptr.add_argument("--epochs", type=int)
-    ptr.add_argument("--num-envs", type=int)
-    ptr.add_argument("--seed", type=int)
+    ptr.add_argument("--epochs", type=POSITIVE, help=f"default: {PPOConfig.epochs}, the paper's (a resumed run: "
+                                                     "its own; more extends it)")
+    ptr.add_argument("--num-envs", type=POSITIVE, help=f"parallel worlds (default: {PPOConfig.num_envs})")
+    ptr.add_argument("--seed", type=int, help=f"default: {PPOConfig.seed}")
     ptr.add_argument("--seeds", help="several seeds as one program (e.g. 0,1,2), each in OUT/seed_N; sharded over "
                                      "the devices when they divide the count")
-    ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"])
-    ptr.add_argument("--save-every", type=int, default=10)
+    ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"], help=f"default: {PPOConfig.lr_schedule}")
+    ptr.add_argument("--save-every", type=POSITIVE, default=10, help="epochs between checkpoints")
     ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
-    ptr.add_argument("--robust-every", type=int, default=Selection.every,
+    ptr.add_argument("--robust-every", type=NONNEGATIVE, default=Selection.every,
                      help="epochs between robustness evaluations that select best_robust (0: off)")
     ptr.add_argument("--quiet", action="store_true")
     ptr.add_argument("--wandb", metavar="PROJECT", help="also log the scalars to this Weights & Biases project (the "
@@ -537,9 +609,10 @@ def build_parser() -> argparse.ArgumentParser:
     pft.add_argument("--checkpoint", required=True, help="a run's checkpoint, or the run folder (best_robust)")
     pft.add_argument("--recipe", required=True, help=" | ".join(FINETUNES))
     pft.add_argument("--out", required=True, help="run folder of the fine-tune")
-    pft.add_argument("--epochs", type=int, help="epochs to add (default: the preset's, 50)")
-    pft.add_argument("--save-every", type=int, default=10)
-    pft.add_argument("--robust-every", type=int, default=Selection.every)
+    pft.add_argument("--epochs", type=POSITIVE, help="epochs to add (default: the preset's, 50)")
+    pft.add_argument("--save-every", type=POSITIVE, default=10, help="epochs between checkpoints")
+    pft.add_argument("--robust-every", type=NONNEGATIVE, default=Selection.every,
+                     help="epochs between robustness evaluations that select best_robust (0: off)")
     pft.add_argument("--quiet", action="store_true")
     pft.add_argument("--object", help="fine-tune onto this object folder instead of the run's own (e.g. a policy "
                                       "trained over several objects, onto a new one)")
@@ -556,10 +629,10 @@ def build_parser() -> argparse.ArgumentParser:
                                       "gripper primitive)")
     pev.add_argument("--object", help="object folder (with --method; with --checkpoint: the policy zero-shot on it)")
     pev.add_argument("--trajectory", help="trajectory file of --object (default: generate one)")
-    pev.add_argument("--damping", default=_csv(PAPER.dampings))
-    pev.add_argument("--mode", default=",".join(PAPER.modes))
-    pev.add_argument("--episodes", type=int, default=PAPER.episodes)
-    pev.add_argument("--seed", type=int, default=PAPER.seed)
+    pev.add_argument("--damping", default=_csv(PAPER.dampings), help="damping multipliers, comma-separated (> 0)")
+    pev.add_argument("--mode", default=",".join(PAPER.modes), help="det (the mean action) and/or stoch (sampled)")
+    pev.add_argument("--episodes", type=POSITIVE, default=PAPER.episodes, help="episodes per cell")
+    pev.add_argument("--seed", type=int, default=PAPER.seed, help="seed of the starts and the stochastic actions")
     pev.add_argument("--exact-reset", action="store_true",
                      help="the paper's noise-free start (default: perturbed expert grasps, so cells are rates)")
     pev.add_argument("--json", action="store_true")
@@ -571,7 +644,7 @@ def build_parser() -> argparse.ArgumentParser:
     pen.add_argument("--object", required=True, help="object folder")
     pen.add_argument("--trajectory", help="trajectory file (default: generate one)")
     pen.add_argument("--paces", default=_csv(ENVELOPE_PACES), help="replay speeds (0.5: twice as slow)")
-    pen.add_argument("--damping", default=_csv(ENVELOPE_DAMPINGS))
+    pen.add_argument("--damping", default=_csv(ENVELOPE_DAMPINGS), help="damping multipliers, comma-separated")
     pen.add_argument("--json", action="store_true")
     pen.add_argument("--plot", metavar="FILE.png", help="also draw the envelope as a figure")
     _add_backend_args(pen)
@@ -582,19 +655,20 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("tables", nargs="+", choices=[*TABLES, "all"])
     prp.add_argument("--objects", nargs="+", help="object folders (default: the packaged drawer); the first is the "
                                                   "diagnostic object of the appendix tables")
-    prp.add_argument("--seeds", default="0,1,2")
+    prp.add_argument("--seeds", default="0,1,2", help="training seeds, comma-separated")
     prp.add_argument("--methods", help="comma-separated rows of the main and ablation tables instead of the paper's "
                                        "(any method preset or controller)")
-    prp.add_argument("--epochs", type=int, default=150, help="base budget; the appendix epochs scale with it")
-    prp.add_argument("--num-envs", type=int)
-    prp.add_argument("--episodes", type=int, help="episodes per cell (default: the paper's 20 in its tables, 100 in "
-                     "the project's generalist and scaling tables)")
+    prp.add_argument("--epochs", type=POSITIVE, default=PPOConfig.epochs,
+                     help="base budget; the appendix epochs scale with it")
+    prp.add_argument("--num-envs", type=POSITIVE, help=f"default: {PPOConfig.num_envs}")
+    prp.add_argument("--episodes", type=POSITIVE, help="episodes per cell (default: the paper's 20 in its tables, "
+                     "100 in the project's generalist and scaling tables)")
     prp.add_argument("--damping", default=_csv(PAPER.dampings), help="evaluation damping multipliers (the paper's "
                                                                     "by default; 8 adds an OOD column)")
-    prp.add_argument("--train-objects", type=int, default=GENERALIST_OBJECTS,
+    prp.add_argument("--train-objects", type=POSITIVE, default=GENERALIST_OBJECTS,
                      help="generalist: procedural training objects in the paper's Table 1 mix (built into --out)")
     prp.add_argument("--dataset", help="generalist: train on this dataset folder (dataset build) instead")
-    prp.add_argument("--holdout", type=int, default=GENERALIST_HOLDOUT,
+    prp.add_argument("--holdout", type=NONNEGATIVE, default=GENERALIST_HOLDOUT,
                      help="generalist: training objects held aside for its best_robust selection")
     prp.add_argument("--scaling", default=_csv(SCALING_OBJECTS),
                      help="scaling: training-set sizes (nested procedural objects in the Table 1 mix)")
@@ -602,33 +676,35 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--checkpoint", default="best_robust", choices=CHECKPOINTS,
                      help="main/ablation: evaluate each run's best_robust checkpoint (the paper's selection) or its "
                           "final one (rows then read METHOD@EPOCHS)")
-    prp.add_argument("--video-every", type=int, default=VIDEO_EVERY,
+    prp.add_argument("--video-every", type=NONNEGATIVE, default=VIDEO_EVERY,
                      help="control steps between video frames of each method's video (0: no videos)")
-    prp.add_argument("--out", default="out/reproduce")
-    prp.add_argument("--backend", default="auto")
+    prp.add_argument("--out", default="out/reproduce", help="the reproduction's folder (resumable)")
+    prp.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
     prp.add_argument("--quiet", action="store_true")
-    prp.add_argument("--tables-only", action="store_true", help="run nothing: write the tables from the "
-                                                               "evaluations already done (partial ones say so)")
+    prp.add_argument("--tables-only", action="store_true",
+                     help="run nothing: write the tables from the evaluations already done, each by the plan "
+                          "recorded in --out (the other flags are not needed; partial tables say so, and a table "
+                          "is never replaced by one with fewer cells)")
     prp.set_defaults(func=cmd_reproduce)
 
     pd = sub.add_parser("demo", help="the main job: trajectory, PICA training, evaluation, report")
     pd.add_argument("--object", help="object folder (default: the packaged drawer cabinet)")
     pd.add_argument("--trajectory")
-    pd.add_argument("--out", default="out/demo")
-    pd.add_argument("--epochs", type=int, help="default: 60 on a CPU, 150 on a GPU")
-    pd.add_argument("--seed", type=int, default=0)
+    pd.add_argument("--out", default="out/demo", help="the demo's run folder (a rerun resumes it)")
+    pd.add_argument("--epochs", type=POSITIVE, help="default: 60 on a CPU, 150 on a GPU")
+    pd.add_argument("--seed", type=int, default=0, help="training seed")
     pd.add_argument("--quiet", action="store_true")
-    pd.add_argument("--backend", default="auto")
-    pd.add_argument("--video-every", type=int, default=VIDEO_EVERY, help="control steps between video frames")
+    pd.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
+    pd.add_argument("--video-every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between video frames")
     pd.add_argument("--method", default="pica", help="the method the demo trains (recommended: the project's recipe)")
     _add_renderer_arg(pd)
     pd.set_defaults(func=cmd_demo)
 
     pv = sub.add_parser("video", help="a trained policy's rollouts at several dampings, side by side")
     pv.add_argument("--checkpoint", required=True, help="run folder (best_robust, else final) or checkpoint file")
-    pv.add_argument("--damping", default=_csv(PAPER.dampings))
+    pv.add_argument("--damping", default=_csv(PAPER.dampings), help="damping multipliers, side by side")
     pv.add_argument("--out", default="policy.mp4", help=".mp4 (where mediapy and ffmpeg exist, else GIF) or .gif")
-    pv.add_argument("--every", type=int, default=VIDEO_EVERY, help="control steps between frames (played in real "
+    pv.add_argument("--every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between frames (played in real "
                                                                     "time: 2 is 30 frames a second)")
     _add_renderer_arg(pv)
     _add_backend_args(pv)
@@ -639,8 +715,8 @@ def build_parser() -> argparse.ArgumentParser:
     pw.add_argument("--checkpoint", help="run folder (best_robust, else final) or checkpoint")
     pw.add_argument("--object", help="object folder (with --checkpoint: the policy on another object)")
     pw.add_argument("--trajectory")
-    pw.add_argument("--damping", type=float, default=1.0)
-    pw.add_argument("--steps", type=int, help="close after this many control steps (default: when closed)")
+    pw.add_argument("--damping", type=_damping, default=1.0, help="the damping multiplier it starts at (> 0)")
+    pw.add_argument("--steps", type=POSITIVE, help="close after this many control steps (default: when closed)")
     _add_backend_args(pw)
     pw.set_defaults(func=cmd_view)
     return p
@@ -658,6 +734,27 @@ def main(argv: list[str] | None = None) -> int:
     except DragMeshError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # what was written stands: a run resumes from its last checkpoint
+        print("error: interrupted (a run continues from its last checkpoint with the same command and --resume)",
+              file=sys.stderr)
+        return 130
+    except Exception as e:  # an operating-system fault, raised as such or wrapped by a library (Orbax, JAX)
+        fault = _os_error(e)
+        if fault is None:
+            raise
+        print(f"error: {os_error_line(fault)}", file=sys.stderr)
+        return 2
+
+
+def _os_error(e: BaseException) -> OSError | None:
+    """The operating-system fault behind ``e`` (itself, or its cause or context), if there is one."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, OSError):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ import jax
 from matplotlib.figure import Figure
 
 from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_bytes, atomic_write_text
@@ -41,19 +42,23 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
     stages = LogLines("demo", 4, enabled=progress)
     run = RunDir(out)
     spec = method_spec(method, folder, {"epochs": epochs, "seed": seed}, backend=backend)
-    _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=False, save_every=max(epochs // 3, 1),
-                                    progress=progress)
-    stages(1, f"1/4 trained ({epochs} epochs)")
-    program, ts, run, ck = load_run(out)  # the checkpoint selected by robustness
-    traj = program.task.traj
-    result, _ = evaluate_loaded(program, ts, run, ck, PAPER)
-    stages(2, f"2/4 evaluated {ck.name}")
-    plot_success(result, out / "success_vs_damping.png")
-    used = grasp_picture(program.task, out / "grasp.png", renderer)
-    stages(3, f"3/4 pictures ({used} renderer)")
-    video, _ = render_policy_video(EvalProtocol(starts=None).task(program.task), program.controller(ts),
-                                   list(PAPER.dampings), out / "policy.mp4", every=video_every, renderer=renderer)
-    stages(4, f"4/4 video {Path(video).name}")
+    with run.writing():  # the whole demo: one writer of its folder at a time
+        if run.exists() and (differ := run.spec().differences(method, folder, ppo={"seed": seed})):
+            raise DragMeshError(f"{out}: holds a demo of another run ({'; '.join(differ)}); give another --out")
+        # a rerun resumes the run there (trained further when asked for more epochs) and redoes the rest
+        _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=None, epochs=epochs,
+                                        save_every=max(epochs // 3, 1), progress=progress)
+        stages(1, f"1/4 trained ({epochs} epochs)")
+        program, ts, run, ck = load_run(out)  # the checkpoint selected by robustness
+        traj = program.task.traj
+        result, _ = evaluate_loaded(program, ts, run, ck, PAPER)
+        stages(2, f"2/4 evaluated {ck.name}")
+        plot_success(result, out / "success_vs_damping.png")
+        used = grasp_picture(program.task, out / "grasp.png", renderer)
+        stages(3, f"3/4 pictures ({used} renderer)")
+        video, _ = render_policy_video(EvalProtocol(starts=None).task(program.task), program.controller(ts),
+                                       list(PAPER.dampings), out / "policy.mp4", every=video_every, renderer=renderer)
+        stages(4, f"4/4 video {Path(video).name}")
     q = traj.header.get("quality", {})
     obj = program.task.scene.obj
     report = [

@@ -1,14 +1,26 @@
-"""Atomic file writes and content hashing: nothing is ever left half-written."""
+"""Atomic file writes, folders that one writer at a time may change, operating-system faults as one line, and
+content hashing: nothing is ever left half-written."""
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import fcntl
 import hashlib
 import json
 import os
+import sys
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
+
+from dragmesh2_jax.errors import DragMeshError, FolderBusy, NotWritable
+
+LOCK_NAME = ".lock"  # the advisory lock file of a folder that one writer at a time may change
+#: Locks this process holds, by folder: [file descriptor, depth] (a writer that calls another writer of the same
+#: folder, as reproduce evaluating a run it trains, holds the one lock).
+_HELD: dict[Path, list[int]] = {}
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
@@ -55,3 +67,73 @@ def cache_dir() -> Path:
         os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "dragmesh2"
     )
     return Path(root)
+
+
+def make_folder(folder: str | os.PathLike) -> Path:
+    """``folder`` and its parents, created where missing; one-line errors where that cannot be."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise DragMeshError(f"{folder}: exists and is not a folder") from None
+    except OSError as e:
+        raise DragMeshError(f"{folder}: cannot be created ({e.strerror})") from None
+    return folder
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str | os.PathLike) -> Iterator[Path]:
+    """Hold the operating system's advisory lock on ``folder`` (created where missing) for the block: one writer
+    at a time. A second process gets one error line naming the holder's process id; this process may enter again.
+    The lock goes with the process, however it ends (no stale lock to remove by hand)."""
+    folder = make_folder(folder)
+    key = folder.resolve()
+    if key in _HELD:
+        _HELD[key][1] += 1
+        try:
+            yield folder
+        finally:
+            _HELD[key][1] -= 1
+        return
+    path = folder / LOCK_NAME
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError as e:
+        raise NotWritable(f"{folder}: cannot be written ({e.strerror})") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = os.pread(fd, 4096, 0).decode(errors="replace").strip() or "unknown"
+        os.close(fd)
+        raise FolderBusy(f"{folder}: in use by another writer (process {holder}); wait for it to end, or write "
+                            "to another folder") from None
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}: {' '.join(sys.argv[:8])}\n".encode(), 0)
+    except OSError:
+        pass  # the holder's name is a courtesy; the lock itself is held
+    _HELD[key] = [fd, 1]
+    try:
+        yield folder
+    finally:
+        del _HELD[key]
+        os.close(fd)
+
+
+#: What to do about an operating-system fault, by its errno.
+OS_HINTS = {
+    errno.ENOSPC: "free some space and run the same command again (a run resumes from its last checkpoint with "
+                  "--resume)",
+    errno.EDQUOT: "free some space and run the same command again",
+    errno.EROFS: "the storage is read-only: write to another folder",
+    errno.EACCES: "no permission: write to another folder",
+    errno.EPERM: "no permission: write to another folder",
+}
+
+
+def os_error_line(e: OSError) -> str:
+    """An operating-system fault as one line: the file, what went wrong and what to do."""
+    where = e.filename if e.filename is not None else "a file"
+    what = e.strerror or str(e)
+    hint = OS_HINTS.get(e.errno or -1)
+    return " ".join(f"{where}: {what}{f'; {hint}' if hint else ''}".split())

@@ -40,7 +40,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
-import shutil
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -56,7 +56,7 @@ from dragmesh2_jax.baselines.tracking import TRACKING
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import MODES, PAPER, PAPER_DAMPINGS, EvalProtocol
-from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+from dragmesh2_jax.io import atomic_write_json, atomic_write_text, folder_lock
 from dragmesh2_jax.policies.methods import METHODS, RECOMMENDED
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.progress import LogLines, to_log
@@ -453,9 +453,7 @@ def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
         start_or_resume(spec, [folder], epochs=run.epochs, **kwargs)  # new, interrupted or extended
     elif folder.exists() and folder.epoch_checkpoints():
         start_or_resume(None, [folder], resume=True, epochs=run.epochs, **kwargs)  # the next stage
-    else:
-        if folder.path.exists():
-            shutil.rmtree(folder.path)  # stopped before its first checkpoint: nothing to resume from
+    else:  # new, or stopped before its first checkpoint (started again)
         parent = run.parent.folder(out).checkpoint(epoch_name(run.parent.epochs))
         finetune_run(str(parent), run.recipe, str(folder.path), None if c.backend == "auto" else c.backend,
                      epochs=run.epochs - run.parent.epochs, object_dir=run.object if run.parent.generalist else None,
@@ -769,7 +767,13 @@ def training_curves(table: str, c: ReproduceConfig, out: Path) -> Path | None:
 
 
 def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) -> Path:
-    """``<table>.md`` and ``<table>.json`` (and Figure 2 for main/ablation) from the evaluations."""
+    """``<table>.md`` and ``<table>.json`` (and Figure 2 for main/ablation) from the evaluations; a table already
+    there with more cells is kept (said on stderr), never replaced by a smaller one."""
+    kept = _cells(out / f"{table}.json")
+    if kept > sum(len(r["cells"]) for r in results):
+        print(f"note: {out / table}.md kept: it has {kept} cells, these evaluations "
+              f"{sum(len(r['cells']) for r in results)}", file=sys.stderr)
+        return out / f"{table}.md"
     budget = (f"{len(c.seeds)} seed(s) {', '.join(map(str, c.seeds))}; base {c.epochs} epochs; "
               f"{c.episodes_of(table in PROJECT_TABLES)} episodes per cell from distinct perturbed starts; backend "
               f"{c.backend}")
@@ -826,6 +830,14 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
     return atomic_write_text(out / f"{table}.md", "\n".join(lines) + "\n")
 
 
+def _cells(path: Path) -> int:
+    """The cells of a table's JSON written before (0: none, or unreadable, so replaced)."""
+    try:
+        return sum(len(r["cells"]) for r in json.loads(path.read_text())["results"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return 0
+
+
 def _training_objects(c: ReproduceConfig) -> str:
     if c.dataset is not None:
         return f"the dataset {c.dataset}"
@@ -861,20 +873,52 @@ def _diagnostic_layout(table: str, c: ReproduceConfig):
     return rows, success
 
 
+PLAN_FILE = "reproduce_run.json"  # the plan of each table reproduced into a folder: its config, and the time taken
+
+
 def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: bool = True,
               on_step: Callable | None = None, run: bool = True) -> list[Path]:
-    """Plan, run (resuming) and write each table; returns the markdown files. ``run=False`` runs nothing and
-    writes the tables from the evaluations already done (a partial table says what it lacks)."""
+    """Plan, run (resuming) and write each table; returns the markdown files. The folder's lock is held throughout
+    (one reproduction writes a folder at a time). Each table's plan is recorded in ``reproduce_run.json`` before it
+    runs; ``run=False`` runs nothing and writes the tables from the evaluations already done, each by its recorded
+    plan (``c`` for a table never run here; a partial table says what it lacks)."""
     out = Path(out)
     tables = list(TABLES) if tables == ["all"] else tables
-    steps = [s for t in tables for s in plan(t, c)]
-    steps = list(dict.fromkeys(steps))  # tables share runs (PICA in main and ablation; the base policy)
-    t0 = time.time()
-    results = execute(steps, c, out, progress, on_step) if run else \
-        [r for s in steps if isinstance(s, Eval) and (r := _current(s, c, out)) is not None]
-    paths = [write_table(t, c, [r for r in results if r["label"] in labels], out)
-             for t in tables for labels in [_labels(t, c)]]  # one plan per table, not one per result
-    if run:
-        atomic_write_json(out / "reproduce_run.json", {"tables": tables, "seconds": round(time.time() - t0, 1),
-                                                       "config": dataclasses.asdict(c)})
+    with folder_lock(out):
+        recorded = _read_plans(out)
+        configs = {t: (c if run else recorded.get(t, c)) for t in tables}
+        if run:
+            _write_plans(out, {**recorded, **configs}, None)
+        steps = [s for t in tables for s in plan(t, configs[t])]
+        steps = list(dict.fromkeys(steps))  # tables share runs (PICA in main and ablation; the base policy)
+        t0 = time.time()
+        if run:
+            execute(steps, c, out, progress, on_step)
+        paths = [write_table(t, configs[t], _results(t, configs[t], out), out) for t in tables]
+        if run:
+            _write_plans(out, {**recorded, **configs}, round(time.time() - t0, 1))
     return paths
+
+
+def _results(table: str, c: ReproduceConfig, out: Path) -> list[dict]:
+    """The evaluations of ``table``'s plan done so far."""
+    return [r for s in plan(table, c) if isinstance(s, Eval) and (r := _current(s, c, out)) is not None]
+
+
+def _read_plans(out: Path) -> dict[str, ReproduceConfig]:
+    """The recorded plan of each table reproduced into ``out`` (none before the first run)."""
+    path = out / PLAN_FILE
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text())
+        plans = data["plans"]
+        return {t: ReproduceConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg.items()})
+                for t, cfg in plans.items() if t in TABLES}
+    except (json.JSONDecodeError, KeyError, TypeError, AttributeError) as e:
+        raise DragMeshError(f"{path}: not a reproduction's plan ({e}); move it aside to start again") from None
+
+
+def _write_plans(out: Path, plans: dict[str, ReproduceConfig], seconds: float | None) -> None:
+    atomic_write_json(out / PLAN_FILE, {"plans": {t: dataclasses.asdict(c) for t, c in plans.items()},
+                                        "seconds": seconds})

@@ -8,15 +8,18 @@ perturbed start (the exact expert grasp when the task has no bank). The viewer's
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
 
+import glfw
 import jax
 import jax.numpy as jnp
 import mujoco
 import mujoco.viewer
 
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.render import dressed_model
 from dragmesh2_jax.task.env import PullTask
@@ -24,6 +27,16 @@ from dragmesh2_jax.task.env import PullTask
 #: Key codes (GLFW's: the ASCII upper case) -> damping multiplier.
 DAMPING_KEYS = {ord("1"): 1.0, ord("2"): 2.0, ord("4"): 4.0, ord("8"): 8.0}
 NEW_EPISODE_KEY = ord("N")
+
+
+def require_display() -> None:
+    """One error line where the viewer cannot open a window (no display, or one GLFW cannot reach)."""
+    glfw.ERROR_REPORTING = False  # its own report is a warning per call; ours is the one line below
+    if not glfw.init():
+        shown = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+        raise DragMeshError(f"view needs a display ({f'cannot open {shown}' if shown else 'DISPLAY is not set'}): "
+                            "run it on a desktop or under xvfb-run, or write a video with dragmesh2 video")
+    glfw.terminate()
 
 
 def view(task: PullTask, controller: Controller, damping: float = 1.0, steps: int | None = None,

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib.util
 import os
+import subprocess
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -42,10 +44,15 @@ def tiny_program(method: str = "pica", obj: str | None = None, backend: str = "m
     return program_of(tiny_spec(method, obj, backend, task, impl=impl, **ppo), trajectory)
 
 
+def in_ci() -> bool:
+    """Whether this is CI (``CI=true`` or ``CI=1``, as CI services set it): missing data is a failure there."""
+    return os.environ.get("CI", "").lower() in ("true", "1")
+
+
 def _enable_jax_cache() -> None:
     """A persistent compilation cache for local reruns. Not in CI, where the clone starts with an empty cache (so it
     only adds writes) and where a worker once crashed inside jaxlib while writing an MJX executable to it."""
-    if os.environ.get("CI") == "true":
+    if in_ci():
         return
     cache = os.environ.get("JAX_COMPILATION_CACHE_DIR", str(ROOT / ".cache" / "jax"))
     jax.config.update("jax_compilation_cache_dir", cache)
@@ -61,7 +68,7 @@ def require_shared(path: Path) -> Path:
     if path.exists():
         return path
     msg = f"{path} is missing (tests read the real objects from ../shared)"
-    if os.environ.get("CI", "").lower() == "true":
+    if in_ci():
         pytest.fail(msg)
     pytest.skip(msg)
 
@@ -71,7 +78,7 @@ def require_package(name: str, extra: str | None = None) -> None:
     if importlib.util.find_spec(name) is not None:
         return
     msg = f"{name} is not installed (pip install -e \".[{extra or name}]\")"
-    if os.environ.get("CI", "").lower() == "true":
+    if in_ci():
         pytest.fail(msg)
     pytest.skip(msg)
 
@@ -111,6 +118,31 @@ def default_scene():
 def drawer_task():
     """The packaged drawer with a generated trajectory, on the C backend (compiles in ~1 s)."""
     return load_task(str(default_object()), None, backend="mujoco")
+
+
+@contextlib.contextmanager
+def read_only(folder: Path):
+    """``folder`` (created, with what it holds) on read-only storage for the block: a read-only bind mount where this
+    process may mount (root, as in CI: permission bits do not stop root), else its permission bits."""
+    folder.mkdir(parents=True, exist_ok=True)
+    mounted = os.geteuid() == 0 and subprocess.run(
+        ["mount", "--bind", str(folder), str(folder)], capture_output=True).returncode == 0
+    if mounted:
+        subprocess.run(["mount", "-o", "remount,bind,ro", str(folder)], check=True, capture_output=True)
+    elif os.geteuid() == 0:
+        pytest.fail("root, but a read-only bind mount could not be made") if in_ci() else pytest.skip("no mount")
+    else:
+        modes = {p: p.stat().st_mode for p in [folder, *folder.rglob("*")] if p.is_dir()}
+        for p in modes:
+            p.chmod(0o555)
+    try:
+        yield folder
+    finally:
+        if mounted:
+            subprocess.run(["umount", str(folder)], check=True, capture_output=True)
+        else:
+            for p, mode in modes.items():
+                p.chmod(mode)
 
 
 def installed_command():

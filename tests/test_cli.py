@@ -1,6 +1,8 @@
 """The command line: inspect on real folders, the demo main job."""
 
+import argparse
 import dataclasses
+import importlib.util
 import json
 import re
 
@@ -92,7 +94,11 @@ def test_demo_trains_evaluates_and_reports(tmp_path):
     assert "policy.gif" in report and frames >= 2 and width == 3 * height * 4 // 3  # three panels: x1, x2, x4
     # MuJoCo's renderer where it runs (CI installs libosmesa6), else the fallback
     assert f"({'matplotlib' if render.gl_problem() else 'mujoco'} renderer)" in report
-    assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet"]) == 2  # never overwrites a run
+    # a second demo into the folder resumes the run there (nothing more to train) and reports again; a demo of
+    # another method is refused, never overwriting the run
+    assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet", "--video-every", "100"]) == 0
+    assert RunDir(tmp_path).trained_epochs() == 2
+    assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--method", "state_only"]) == 2
     # the same run's policy as a video, two dampings side by side (MP4 asked: GIF where no ffmpeg)
     assert dragmesh2(["video", "--checkpoint", str(tmp_path), "--damping", "1,4", "--out", str(tmp_path / "v.mp4"),
                  "--every", "100", "--backend", "mujoco"]) == 0
@@ -134,6 +140,17 @@ BAD_INPUT = [
     ["train", "--out", "{tmp}/run_without_configs", "--resume"],  # run.json = {"format": 2}
     ["evaluate", "--checkpoint", "{tmp}/run_without_configs"],
     ["spin"],
+    # numbers refused when parsed, before anything runs
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--ppo.num-minibatches", "0"],
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--save-every", "0"],
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--seeds", ""],  # not seed 42
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--epochs", "0"],
+    ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "0"],  # not an x0 row
+    ["evaluate", "--method", "tracking", "--object", "{obj}", "--episodes", "-3"],
+    ["view", "--object", "{obj}", "--damping", "0"],
+    ["reproduce", "main", "--out", "{tmp}/x", "--video-every", "-1"],
+    # flags a recorded comparison would ignore
+    ["bench", "learning", "--against", "{tmp}/curves.json", "--epochs", "2", "--seeds", "0"],
 ]
 
 
@@ -142,6 +159,7 @@ def test_bad_input_is_one_error_line_and_status_2(argv, tmp_path, capsys):
     argv = [a.format(tmp=tmp_path, obj=default_object()) for a in argv]
     (tmp_path / "run_without_configs").mkdir()
     (tmp_path / "run_without_configs" / "run.json").write_text('{"format": 2}')
+    (tmp_path / "curves.json").write_text('{"method": "pica", "epochs": 40, "seeds": [0, 1, 2], "curves": {}}')
     assert dragmesh2(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: "), err
@@ -196,6 +214,42 @@ def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and
 def _train_parser():
     sub = next(a for a in build_parser()._actions if a.dest == "cmd")
     return sub.choices["train"]
+
+
+def test_bench_env_checks_every_engine_before_it_measures(monkeypatch, capsys):
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "warp" else real(name, *a))
+    assert dragmesh2(["bench", "env", "--backend", "mujoco,mjx", "--impl", "jax,warp", "--num-envs", "1",
+                      "--steps", "1"]) == 2
+    *before, line = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("error: MJX's Warp implementation needs warp-lang")
+    assert not [ln for ln in before if "control" in ln and "physics" in ln]  # no row was measured first
+
+
+def _subparsers(parser: argparse.ArgumentParser):
+    """Every (sub)command's parser, by its prog."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in dict.fromkeys(action.choices.values()):
+                yield sub
+                yield from _subparsers(sub)
+
+
+def test_help_shows_every_default():
+    """Each option that takes a value and has a default says it in --help, and so do the ones whose default depends
+    on the method or the run (the issue's examples)."""
+    named = {"dragmesh2 train": {"--epochs", "--num-envs", "--seed", "--method"},
+             "dragmesh2 evaluate": {"--damping", "--mode", "--episodes"}}
+    for sub in _subparsers(build_parser()):
+        formatter = sub._get_formatter()
+        for a in sub._actions:
+            if not a.option_strings or a.nargs == 0:
+                continue
+            shown = formatter._format_action(a)  # what --help prints for it
+            if a.default is not None or set(a.option_strings) & named.get(sub.prog, set()):
+                assert "default" in shown, (sub.prog, a.option_strings)
+    help_text = _train_parser().format_help()
+    assert "(default: 10)" in help_text and "TaskConfig's 0.05" in help_text
 
 
 def test_envelope_prints_the_cells_and_rejects_a_bad_pace(capsys):

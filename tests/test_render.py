@@ -2,7 +2,7 @@
 machine: CI installs libosmesa6), the scene dressed and framed on the hand and the handle, the matplotlib drawing as
 the fallback that says why, and videos whose panels say their damping, step, progress, load and outcome."""
 
-import os
+
 
 import numpy as np
 import pytest
@@ -12,6 +12,7 @@ from dragmesh2_jax import render
 from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import HANDLE_RGBA, PART_RGBA
+from tests.conftest import in_ci
 
 
 def _rgb(rgba: str) -> np.ndarray:
@@ -26,7 +27,7 @@ def _share_near(img: np.ndarray, rgb: np.ndarray, tol: float = 60.0) -> float:
 def test_mujoco_renders_the_expert_grasp_in_colour(drawer_task, tmp_path):
     if render.gl_problem():
         msg = f"MuJoCo cannot render here: {render.gl_problem()}"
-        if os.environ.get("CI", "").lower() == "true":
+        if in_ci():
             pytest.fail(msg)  # CI installs libosmesa6
         pytest.skip(msg)
     t = drawer_task

@@ -218,10 +218,26 @@ def test_tables_only_writes_what_is_done_and_names_what_is_not(tmp_path):
     assert "b/pica (seed 0,1)" in table and "a/pica" not in table.split("**Partial**")[1].split("\n")[0]
     assert not list(tmp_path.glob("runs/*/*/checkpoints"))  # nothing trained
 
-    # the same runs planned at a larger budget: their evaluations are stale, the controllers' are not
+    # the same runs planned at a larger budget: their evaluations are stale, so that table would have fewer cells
+    # than the one written: it is kept, never replaced by a smaller one
     [path] = reproduce(["main"], dataclasses.replace(c, epochs=3), tmp_path, progress=False, run=False)
-    table = path.read_text()
-    assert "| tracking | x1 | 1.00" in table and "a/pica (seed 0,1)" in table
+    assert path.read_text() == table
+
+
+def test_tables_only_reads_the_plan_the_reproduction_recorded(tmp_path, monkeypatch):
+    """``--tables-only`` without the run's other flags writes each table by the plan recorded when it ran, not by
+    the defaults: the rows and seeds of the run stay in the table."""
+    fake = FakeSteps()
+    monkeypatch.setattr(reproduce_lib, "_train", fake.train)
+    monkeypatch.setattr(reproduce_lib, "_evaluate", fake.evaluate)
+    c = dataclasses.replace(TINY, methods=("tracking", "state_only", "pica"))
+    reproduce(["main"], c, tmp_path, progress=False)
+    written = json.loads((tmp_path / "main.json").read_text())["results"]
+    defaults = ReproduceConfig(objects=(str(default_object()),))  # what the command's defaults would plan
+    [path] = reproduce(["main"], defaults, tmp_path, progress=False, run=False)
+    again = json.loads((tmp_path / "main.json").read_text())
+    assert again["results"] == written and again["config"]["methods"] == ["tracking", "state_only", "pica"]
+    assert "| state_only | x1 |" in path.read_text() and "**Partial**" not in path.read_text()
 
 
 def test_the_papers_cells_cover_its_seven_objects_and_average_to_its_avg_column():

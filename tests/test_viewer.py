@@ -11,14 +11,14 @@ from pathlib import Path
 import pytest
 
 from dragmesh2_jax.assets.procedural import default_object
-from tests.conftest import installed_command
+from tests.conftest import in_ci, installed_command
 
 
 @pytest.fixture
 def display():
     xvfb = shutil.which("Xvfb")
     if xvfb is None:
-        if os.environ.get("CI", "").lower() == "true":
+        if in_ci():
             pytest.fail("Xvfb is not installed (CI installs it: apt-get install xvfb)")
         pytest.skip("no Xvfb here")
     number = 90 + os.getpid() % 9

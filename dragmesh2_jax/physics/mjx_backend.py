@@ -111,15 +111,20 @@ def _accelerator_plugin() -> bool:
                                                                 "jax_rocm60_plugin", "jax_rocm7_plugin"))
 
 
+def require_impl(impl: str) -> None:
+    """One error line when MJX's ``impl`` cannot run here (Warp without its extra)."""
+    if impl == "warp" and importlib.util.find_spec("warp") is None:
+        raise DragMeshError("MJX's Warp implementation needs warp-lang (pip install -e \".[warp]\"); "
+                            f"mujoco.mjx said: {_IMPORT_NOTES.getvalue().strip() or 'nothing'}")
+
+
 class MjxBackend:
     name = "mjx"
 
     def __init__(self, scene: Scene, substeps: int, starts: list[Start], budget: ContactBudget,
                  settle_substeps: int = 4, impl: str = "jax"):
         avoid_lapack_deadlock()
-        if impl == "warp" and importlib.util.find_spec("warp") is None:
-            raise DragMeshError("MJX's Warp implementation needs warp-lang (pip install -e \".[warp]\"); "
-                                f"mujoco.mjx said: {_IMPORT_NOTES.getvalue().strip() or 'nothing'}")
+        require_impl(impl)
         self.scene, self.substeps, self.impl = scene, substeps, impl
         self.budget = budget
         self.capped = impl == "jax" and self.budget.contacts < self.budget.candidates

@@ -31,6 +31,9 @@ def save_checkpoint(ts: TrainState, path: str | Path) -> Path:
         ck.save(tmp / "learner", ts.replace(env_state=None))
         ck.save(tmp / "env", _sized_leaves(ts.env_state))
         ck.wait_until_finished()
+    except BaseException:  # a full disk, an interrupt: no half-written sibling is left, the old checkpoint stands
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     finally:
         ck.close()
     old = path.with_name(f".{path.name}.old")

@@ -35,8 +35,8 @@ class PPOConfig:
     seed: int = 42
 
     def __post_init__(self):
-        if self.num_envs < 1 or self.rollout_len < 1 or self.epochs < 1 or self.update_epochs < 1:
-            raise DragMeshError("num_envs, rollout_len, epochs and update_epochs must be >= 1")
+        if min(self.num_envs, self.rollout_len, self.epochs, self.update_epochs, self.num_minibatches) < 1:
+            raise DragMeshError("num_envs, rollout_len, epochs, update_epochs and num_minibatches must be >= 1")
         if (self.num_envs * self.rollout_len) % self.num_minibatches:
             raise DragMeshError(f"num_envs * rollout_len ({self.num_envs * self.rollout_len}) must divide into "
                                 f"{self.num_minibatches} minibatches")

@@ -4,6 +4,7 @@ checkpoint or a controller that needs no training, render a run's video."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
@@ -12,9 +13,10 @@ from pathlib import Path
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.baselines import tracking
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
-from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.errors import DragMeshError, NotSaved, NotWritable
 from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES, envelope, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
+from dragmesh2_jax.io import os_error_line
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint
 from dragmesh2_jax.ppo.finetune import get_finetune
@@ -29,11 +31,11 @@ from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import contact_budget, reset_starts
 from dragmesh2_jax.trajectory.generator import generate
 from dragmesh2_jax.trajectory.schema import write_trajectory
-from dragmesh2_jax.viewer import view
+from dragmesh2_jax.viewer import require_display, view
 
 
-def parse_floats(text: str, what: str, minimum: float | None = None) -> list[float]:
-    """Comma-separated finite numbers (``"1,2,4"``), each >= ``minimum`` when given."""
+def parse_floats(text: str, what: str, minimum: float | None = None, above: float | None = None) -> list[float]:
+    """Comma-separated finite numbers (``"1,2,4"``), each >= ``minimum`` and > ``above`` when given."""
     try:
         vals = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
@@ -44,6 +46,8 @@ def parse_floats(text: str, what: str, minimum: float | None = None) -> list[flo
         raise DragMeshError(f"{what}: values must be finite, got {text!r}")
     if minimum is not None and min(vals) < minimum:
         raise DragMeshError(f"{what}: values must be >= {minimum:g}, got {text!r}")
+    if above is not None and min(vals) <= above:
+        raise DragMeshError(f"{what}: values must be > {above:g}, got {text!r}")
     return vals
 
 
@@ -86,25 +90,46 @@ def make_trajectory(object_dir: str, out: str, render: str | None = None, render
     return traj, (render_trajectory_gif(obj, traj, render, renderer=renderer) if render else None)
 
 
-def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str,
+DEFAULT_METHOD = "pica"  # what ``train`` trains when no --method is given
+
+
+def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str | None = None,
               backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
               task_changes: dict | None = None, scene_changes: dict | None = None,
               network_changes: dict | None = None, selection: Selection = Selection(), save_every: int = 10,
               progress: bool = True, wandb: str | None = None, holdout: int = 0,
               **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
-    record (``resume``: ``ppo["epochs"]`` extends it); ``object_dir`` a list: one policy over several objects, the
-    last ``holdout`` held aside for checkpoint selection. Returns (program, [(seed, log rows)])."""
+    record (``resume``: ``ppo["epochs"]`` extends it; a method, object or config value that differs from the record
+    is refused); ``object_dir`` a list: one policy over several objects, the last ``holdout`` held aside for
+    checkpoint selection. Returns (program, [(seed, log rows)])."""
+    if seeds is not None and not seeds:
+        raise DragMeshError("--seeds: no seeds given")
     runs = [RunDir(Path(out) / f"seed_{s}") for s in seeds] if seeds else [RunDir(out)]
     if resume:
+        _check_resume(runs, method, object_dir, {k: v for k, v in ppo.items() if k != "epochs"},
+                      task_changes, scene_changes, network_changes)
         program, _, logs = start_or_resume(None, runs, resume=True, epochs=ppo.get("epochs"), backend=backend,
                                            impl=impl, save_every=save_every, selection=selection, progress=progress,
                                            wandb=wandb)
         return program, [(r.spec().ppo.seed, rows) for r, rows in zip(runs, logs, strict=True)]
-    spec = method_spec(method, object_dir, ppo, task_changes, scene_changes, backend, impl, network_changes, holdout)
+    spec = method_spec(method or DEFAULT_METHOD, object_dir, ppo, task_changes, scene_changes, backend, impl,
+                       network_changes, holdout)
     program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, save_every=save_every,
                                        selection=selection, progress=progress, wandb=wandb)
     return program, list(zip(seeds or [spec.ppo.seed], logs, strict=True))
+
+
+def _check_resume(runs: list[RunDir], method: str | None, object_dir, ppo: dict, task: dict | None,
+                  scene: dict | None, network: dict | None) -> None:
+    """A resume continues the recorded runs exactly: flags that would change one are refused, saying what differs."""
+    for run in runs:
+        if not run.exists():
+            continue  # start_or_resume says there is nothing to resume
+        differ = run.spec().differences(method, object_dir, ppo=ppo, task=task, scene=scene, network=network)
+        if differ:
+            raise DragMeshError(f"{run.path}: --resume continues the recorded run exactly, but the flags change "
+                                f"{'; '.join(differ)}; drop them, or start a new run in another --out")
 
 
 def dataset_objects(folder: str | Path) -> tuple[list[str], list[str]]:
@@ -192,18 +217,29 @@ def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend
                         trajectory: str | None = None) -> tuple[dict, Path]:
     """The protocol for a trained run's checkpoint on its own object(s), or zero-shot on ``object_dir`` (any object
     folder; its trajectory generated unless given), written into the run's evaluations (keyed by checkpoint,
-    protocol and, zero-shot, object); returns the result and its file."""
-    program, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
-    return evaluate_loaded(program, ts, run, ck, protocol, Path(object_dir).name if object_dir else None)
+    protocol and, zero-shot, object); returns the result and its file. The run's lock is held throughout (a run
+    another process writes is refused before anything is computed); a run on read-only storage is evaluated and
+    its result raised whole in :class:`NotSaved`."""
+    run, _ = RunDir.of_checkpoint(checkpoint)
+    with contextlib.ExitStack() as lock:
+        with contextlib.suppress(NotWritable):  # read-only: evaluated all the same, the result raised whole
+            lock.enter_context(run.writing())
+        program, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
+        return evaluate_loaded(program, ts, run, ck, protocol, Path(object_dir).name if object_dir else None)
 
 
 def evaluate_loaded(program: TrainProgram, ts: TrainState, run: RunDir, ck: Path, protocol: EvalProtocol = PAPER,
                     on: str | None = None) -> tuple[dict, Path]:
     """:func:`evaluate_checkpoint` of a run already loaded (``load_run``); ``on``: the object of a zero-shot
-    evaluation."""
+    evaluation. A result that cannot be written is raised whole (:class:`NotSaved`), never lost."""
     result = evaluate(protocol.task(program.task), program.controller(ts), protocol)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs(), zero_shot=on is not None)
-    return result, run.write_evaluation(ck, protocol, result, markdown_table(result), on=on)
+    try:
+        return result, run.write_evaluation(ck, protocol, result, markdown_table(result), on=on)
+    except OSError as e:
+        raise NotSaved(f"the evaluation was not saved: {os_error_line(e)}", result) from None
+    except NotWritable as e:
+        raise NotSaved(f"the evaluation was not saved: {e}", result) from None
 
 
 def baseline_controllers() -> dict:
@@ -236,6 +272,7 @@ def view_run(checkpoint: str | None, object_dir: str | None, trajectory: str | N
     """``dragmesh2 view``: a run's deterministic policy (on its own object, or on ``object_dir``), or without a
     checkpoint the expert drag on ``object_dir``, in MuJoCo's viewer from the evaluation's perturbed starts; returns
     the control steps shown."""
+    require_display()  # before anything is loaded or compiled
     if checkpoint:
         program, ts, _, _ = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
         task, controller = program.task, program.controller(ts)

@@ -10,20 +10,25 @@
     evaluations/CK__PROTOCOL.json, .md   an evaluation of checkpoint CK under a protocol (``EvalProtocol.name``):
                              one never overwrites another's
 
+    .lock                    the operating system's advisory lock of the process writing the run (train,
+                             finetune, evaluate, reproduce, the demo): one writer at a time
+
 Tables are rewritten whole and atomically at every row (a crash leaves the previous version).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
-from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+from dragmesh2_jax.io import LOCK_NAME, atomic_write_json, atomic_write_text, folder_lock
 from dragmesh2_jax.ppo.checkpoint import is_checkpoint
 from dragmesh2_jax.runs.spec import RunSpec
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory, write_trajectory
@@ -63,6 +68,13 @@ class RunDir:
         """Whether the folder holds a run (its record)."""
         return self.record_path.is_file()
 
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[RunDir]:
+        """Hold the run folder's lock (created where missing) for the block: a second writer, in another process,
+        gets one error line naming this one's process id."""
+        with folder_lock(self.path):
+            yield self
+
     # ----------------------------------------------------------------------------------- the record
     def start(self, spec: RunSpec, backend: str, trajectory: Trajectory | list[Trajectory], replace: bool = False,
               buffers: dict | None = None) -> None:
@@ -71,8 +83,10 @@ class RunDir:
         it saved anything."""
         if self.exists() and not replace:
             raise DragMeshError(f"{self.path}: already holds a run (use --resume, or another --out)")
-        if self.exists():
-            shutil.rmtree(self.path)
+        if self.exists():  # everything but the lock its writer holds
+            for p in self.path.iterdir():
+                if p.name != LOCK_NAME:
+                    shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
         self.path.mkdir(parents=True, exist_ok=True)
         trajectories = trajectory if isinstance(trajectory, list) else [trajectory]
         write_trajectory(trajectories[0], self.trajectory_path)
@@ -96,6 +110,13 @@ class RunDir:
 
     def spec(self) -> RunSpec:
         return RunSpec.from_record(self.record(), where=str(self.record_path))
+
+    def extend_schedule(self, epochs: int) -> None:
+        """A resume that trains further: the record's schedule becomes ``epochs`` (rewritten whole, atomically)."""
+        record = dict(self.record())
+        record["ppo"] = {**record["ppo"], "epochs": epochs}
+        atomic_write_json(self.record_path, record)
+        self._record = None
 
     @property
     def backend(self) -> str:
@@ -203,8 +224,9 @@ class RunDir:
     def write_evaluation(self, checkpoint: Path, protocol: EvalProtocol, result: dict, markdown: str,
                          on: str | None = None) -> Path:
         path = self.evaluation_path(checkpoint, protocol, on=on)
-        atomic_write_json(path, result)
-        atomic_write_text(self.evaluation_path(checkpoint, protocol, ".md", on), markdown + "\n")
+        with self.writing():
+            atomic_write_json(path, result)
+            atomic_write_text(self.evaluation_path(checkpoint, protocol, ".md", on), markdown + "\n")
         return path
 
     def evaluation(self, checkpoint: Path, protocol: EvalProtocol, on: str | None = None) -> dict | None:

@@ -102,40 +102,66 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
                     impl: str = "jax", save_every: int = 10, selection: Selection = Selection(),
                     progress: bool = True, log_fn=None, wandb: str | None = None
                     ) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
-    """Train the runs in ``runs`` (one per seed, as one program) to ``epochs`` (default: the spec's).
+    """Train the runs in ``runs`` (one per seed, as one program) to ``epochs`` (default: the spec's), holding each
+    run folder's lock throughout (a second writer is one error line).
 
     ``resume``: True continues the runs exactly from their newest common checkpoint (their records define them:
-    ``spec`` may be None); False starts new runs of ``spec`` (a folder that holds a run is an error); None resumes
-    when every folder has a checkpoint and starts otherwise (a run stopped before its first checkpoint starts
-    again). ``start``: a fine-tune's first state (one run). ``backend``: resume on this engine instead of the
-    recorded task's. ``wandb``: a W&B project that gets the same scalars as TensorBoard. Returns the program, the
-    final state (leading run axis) and each run's log rows."""
+    ``spec`` may be None); False starts new runs of ``spec`` (a folder that holds a run with a checkpoint is an
+    error); None resumes when every folder has a checkpoint and starts otherwise. A run stopped before its first
+    checkpoint, whatever stopped it, starts again either way (resumed, from its record). ``start``: a fine-tune's
+    first state (one run). ``backend``: resume on this engine instead of the recorded task's. ``wandb``: a W&B
+    project that gets the same scalars as TensorBoard. A resume to more epochs than the record's extends its
+    schedule. Returns the program, the final state (leading run axis) and each run's log rows."""
     seeds = list(seeds) if seeds is not None else [spec.ppo.seed] if spec else None
     if not runs or (seeds is not None and len(seeds) != len(runs)):
         raise DragMeshError("one run folder per seed, at least one")
     if start is not None and len(runs) != 1:
         raise DragMeshError("a fine-tune continues one run, not several seeds")
-    common = _resume_epoch(runs) if all(r.exists() for r in runs) else None
-    fresh = resume is None and common is None  # a run stopped before its first checkpoint may start again
+    if save_every < 1:
+        raise DragMeshError(f"save_every must be >= 1, got {save_every}")
+    if wandb:
+        wandb_module()  # before anything is written: a missing extra leaves no folder behind
+    with contextlib.ExitStack() as locks:
+        for r in runs:
+            locks.enter_context(r.writing())
+        return _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backend, impl, save_every,
+                                selection, progress, log_fn, wandb)
+
+
+def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backend, impl, save_every, selection,
+                     progress, log_fn, wandb):
+    recorded = all(r.exists() for r in runs)
+    common = _resume_epoch(runs) if recorded else None
+    if resume and common is None:
+        if not recorded:
+            raise DragMeshError(f"{runs[0].path}: nothing to resume (no run.json; start the run without --resume)")
+        spec, seeds = runs[0].spec(), [r.spec().ppo.seed for r in runs]  # stopped before its first checkpoint
+        trajectory = runs[0].trajectories()
+        spec = spec.on(backend, impl) if backend else spec
     if resume is None:
         resume = common is not None
-    if resume:
-        if common is None:
-            raise DragMeshError(f"{runs[0].path}: nothing to resume (no checkpoints/epoch_* common to every run)")
-        recorded = runs[0].spec()
-        spec = recorded.on(backend, impl) if backend else recorded
+    if resume and common is not None:
+        recorded_spec = runs[0].spec()
+        spec = recorded_spec.on(backend, impl) if backend else recorded_spec
         seeds = [r.spec().ppo.seed for r in runs]
+        done = max(common, max(r.trained_epochs() for r in runs))
+        if epochs is not None and epochs < done:
+            raise DragMeshError(f"{runs[0].path}: already trained {done} epochs; --epochs {epochs} would undo "
+                                "them (give more epochs to extend the run)")
         program, heldout, _ = programs_of(spec, runs[0].trajectories())
         template = init_jit(program, program.data(), seed_keys(seeds[:1])[0])
         states = [load_checkpoint(template, r.epoch_checkpoints()[common]) for r in runs]
         ts = stack_runs(states)
         rows = [r.log_rows(common) for r in runs]
         robust_rows = [r.robust_rows(common) for r in runs]
+        if epochs is not None and epochs > recorded_spec.ppo.epochs:
+            for r in runs:
+                r.extend_schedule(epochs)
     else:
         if spec is None:
             raise DragMeshError("a new run needs its spec")
         for r in runs:
-            if r.exists() and not (fresh and not r.epoch_checkpoints()):
+            if r.exists() and r.epoch_checkpoints():
                 raise DragMeshError(f"{r.path}: already holds a run (use --resume, or another --out)")
         program, heldout, tasks = programs_of(spec, trajectory)
         for r, s in zip(runs, seeds, strict=True):  # one stopped before its first checkpoint starts again
@@ -204,6 +230,15 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
     return ts
 
 
+def wandb_module():
+    """The wandb package (the ``wandb`` extra), or one error line."""
+    try:
+        import wandb  # optional: the wandb extra
+    except ImportError:
+        raise DragMeshError("--wandb needs the wandb package (pip install -e \".[wandb]\")") from None
+    return wandb
+
+
 class _Scalars:
     """A run's scalars, ``group/metric`` by epoch: TensorBoard's event files in the run folder, and the same on
     Weights & Biases when a project is given (the ``wandb`` extra; ``WANDB_MODE=offline`` keeps them local). A
@@ -215,10 +250,7 @@ class _Scalars:
         self.board = SummaryWriter(str(run.tensorboard), purge_step=purge)
         self.wandb = None
         if wandb_project:
-            try:
-                import wandb  # optional: the wandb extra
-            except ImportError:
-                raise DragMeshError("--wandb needs the wandb package (pip install -e \".[wandb]\")") from None
+            wandb = wandb_module()
             run_id = hashlib.sha1(str(run.path.resolve()).encode()).hexdigest()[:16]
             self.wandb = wandb.init(project=wandb_project, name=run.path.name, id=run_id, resume="allow",
                                     dir=str(run.path), config=run.record(), reinit="create_new")

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import hash_files
-from dragmesh2_jax.policies.methods import Method, get_method, task_overrides
+from dragmesh2_jax.policies.methods import Method, get_method, resolve, task_overrides
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.finetune import get_finetune
@@ -62,6 +62,26 @@ class RunSpec:
     def preset(self) -> Method:
         """The method preset with this run's network."""
         return dataclasses.replace(get_method(self.method), network=self.network)
+
+    def differences(self, method: str | None = None, object_dir: str | list[str] | None = None,
+                    **changes: dict) -> list[str]:
+        """What a command's flags would change in this recorded run, each as ``what given (recorded R)``: the
+        method, the object(s) and any field given in ``changes`` (``ppo``, ``task``, ``scene``, ``network``: field ->
+        value; None values are flags not given). A resume continues a run exactly, so any of these is refused."""
+        out = []
+        if method is not None and resolve(method) != self.method:
+            out.append(f"method {resolve(method)} (recorded {self.method})")
+        if object_dir:
+            given = [str(Path(o).resolve()) for o in (object_dir if isinstance(object_dir, list) else [object_dir])]
+            recorded = [str(Path(o).resolve()) for o in (self.objects or (self.object,))]
+            if given != recorded:
+                out.append(f"object {', '.join(given)} (recorded {', '.join(recorded)})")
+        for group, fields in changes.items():
+            config = getattr(self, group)
+            for name, value in (fields or {}).items():
+                if value is not None and value != getattr(config, name):
+                    out.append(f"{group}.{name} {value} (recorded {getattr(config, name)})")
+        return out
 
     def with_seed(self, seed: int) -> RunSpec:
         return dataclasses.replace(self, ppo=dataclasses.replace(self.ppo, seed=seed))

@@ -205,6 +205,9 @@ def parse_trajectory(data, where: str = "trajectory") -> Trajectory:
     n = {len(f.joint_positions) for f in parsed}
     if len(n) != 1:
         raise DragMeshError(f"{where}: frames disagree on the number of object joints ({sorted(n)})")
+    if not any(f.phase == "drag" for f in parsed):
+        raise DragMeshError(f"{where}: no drag frames (phase 'drag'): the trajectory never pulls the part, so no "
+                            "grasp to start from and nothing to reach")
     return Trajectory(frames=parsed, header=header)
 
 

@@ -57,3 +57,13 @@ def test_malformed_file(tmp_path):
     with pytest.raises(DragMeshError, match="no such"):
         read_trajectory(tmp_path / "missing.json")
     json.loads("[]")
+
+
+def test_a_trajectory_without_drag_frames_is_refused(shared_dir, tmp_path):
+    """No drag phase: no grasp to start from and nothing to reach (it was once evaluated as 0.00 success)."""
+    frames = json.loads((shared_dir / "reference" / "trajectories" / "45661.json").read_text())
+    for f in frames:
+        f["phase"] = "grasp" if f["phase"] == "drag" else f["phase"]
+    (tmp_path / "t.json").write_text(json.dumps(frames))
+    with pytest.raises(DragMeshError, match="no drag frames"):
+        read_trajectory(tmp_path / "t.json")

@@ -1,0 +1,150 @@
+"""Runs nothing can corrupt: one writer per run folder, a run stopped anywhere restarts with the same command, flags
+a resume would silently drop are refused, and operating-system faults (not a folder, not creatable, read-only, a
+full disk, an interrupt) are one ``error:`` line with nothing lost."""
+
+import errno
+import json
+import shutil
+import sys
+
+import pytest
+
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.runs.rundir import RunDir
+from tests.conftest import installed_command, read_only
+from tests.test_io import hold_lock, release
+
+#: The module's trained run is built once: keep the file on one xdist worker.
+pytestmark = pytest.mark.xdist_group(__name__)
+
+dragmesh2 = installed_command()
+TINY = ["--epochs", "2", "--num-envs", "4", "--ppo.rollout-len", "8", "--backend", "mujoco", "--quiet",
+        "--robust-every", "0", "--network.state-sizes", "64,64", "--network.hist-dim", "32", "--network.heads", "2",
+        "--network.critic-sizes", "64"]
+
+
+def train(out, *more) -> int:
+    return dragmesh2(["train", "--object", str(default_object()), "--out", str(out), *TINY, *more])
+
+
+def one_error(capsys, fragment: str) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and fragment in err[0], err
+    return err[0]
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs") / "pica"
+    assert train(out, "--save-every", "1") == 0
+    return out
+
+
+@pytest.fixture
+def run(trained, tmp_path):
+    """A copy of the module's trained run (2 epochs, a checkpoint at each)."""
+    return shutil.copytree(trained, tmp_path / "run")
+
+
+def test_a_second_writer_is_refused_naming_the_first(run, capsys):
+    before = (run / "log.jsonl").read_text()
+    holder = hold_lock(run)
+    try:
+        assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet"]) == 2
+        one_error(capsys, f"in use by another writer (process {holder.pid}")
+        assert dragmesh2(["evaluate", "--checkpoint", str(run), "--episodes", "1", "--mode", "det"]) == 2
+        one_error(capsys, f"process {holder.pid}")
+        assert dragmesh2(["demo", "--out", str(run), "--epochs", "2"]) == 2
+        assert f"process {holder.pid}" in capsys.readouterr().err
+    finally:
+        release(holder)
+    assert (run / "log.jsonl").read_text() == before and not list(run.glob("evaluations/*"))
+
+
+def test_an_out_that_is_a_file_or_cannot_be_made_is_one_line(tmp_path, capsys):
+    (tmp_path / "file").write_text("not a folder")
+    assert train(tmp_path / "file") == 2
+    one_error(capsys, "exists and is not a folder")
+    assert train(tmp_path / "file" / "run") == 2
+    one_error(capsys, "cannot be created")
+
+
+def test_a_full_disk_is_one_line_and_the_same_run_resumes_once_there_is_space(run, monkeypatch, capsys):
+    full = {"left": 1}
+
+    def write_log(self, rows):  # the disk fills up at the next epoch's log
+        if full["left"] == 0:
+            raise OSError(errno.ENOSPC, "No space left on device", str(self.path / "log.jsonl"))
+        full["left"] -= 1
+        real(self, rows)
+    real = RunDir.write_log
+    monkeypatch.setattr(RunDir, "write_log", write_log)
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "5", "--save-every", "1", "--quiet"]) == 2
+    one_error(capsys, "No space left on device; free some space and run the same command again")
+    assert sorted(RunDir(run).epoch_checkpoints()) == [1, 2, 3]  # earlier checkpoints stand, readable
+    assert not [p for p in run.rglob("*") if p.name.endswith(".tmp")]  # no temporary file left behind
+    monkeypatch.undo()
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "5", "--quiet"]) == 0
+    assert [r["epoch"] for r in RunDir(run).log_rows()] == [1, 2, 3, 4, 5]
+
+
+def test_a_run_stopped_before_its_first_checkpoint_restarts_with_the_same_command(tmp_path, monkeypatch, capsys):
+    def interrupt(self, rows):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(RunDir, "write_log", interrupt)
+    assert train(tmp_path / "run") == 130
+    one_error(capsys, "interrupted")
+    assert RunDir(tmp_path / "run").exists() and not RunDir(tmp_path / "run").epoch_checkpoints()
+    monkeypatch.undo()
+    assert train(tmp_path / "run") == 0  # the same command
+    assert RunDir(tmp_path / "run").trained_epochs() == 2
+    # and --resume of such a folder starts it again from its record
+    monkeypatch.setattr(RunDir, "write_log", interrupt)
+    assert train(tmp_path / "other", "--seed", "7") == 130
+    monkeypatch.undo()
+    assert dragmesh2(["train", "--out", str(tmp_path / "other"), "--resume", "--quiet"]) == 0
+    assert RunDir(tmp_path / "other").spec().ppo.seed == 7 and RunDir(tmp_path / "other").trained_epochs() == 2
+
+
+def test_wandb_missing_is_refused_before_anything_is_written(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "wandb", None)  # as if the extra were not installed
+    assert train(tmp_path / "run", "--wandb", "project") == 2
+    one_error(capsys, "--wandb needs the wandb package")
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_resume_refuses_changed_flags_and_a_longer_schedule_extends_the_record(run, capsys):
+    changed = ["--method", "state_only", "--num-envs", "8", "--task.alpha", "0.03", "--seed", "3"]
+    assert dragmesh2(["train", "--out", str(run), "--resume", *changed]) == 2
+    line = one_error(capsys, "--resume continues the recorded run exactly")
+    for what in ("method state_only (recorded pica)", "ppo.num_envs 8 (recorded 4)", "task.alpha 0.03 (recorded 0.05)",
+                 "ppo.seed 3 (recorded 42)"):
+        assert what in line
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "1"]) == 2
+    one_error(capsys, "already trained 2 epochs")
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--method", "pica", "--quiet"]) == 0
+    assert RunDir(run).spec().ppo.epochs == 3 and RunDir(run).trained_epochs() == 3
+
+
+def test_train_into_a_run_that_has_checkpoints_is_refused(run, capsys):
+    assert train(run) == 2
+    one_error(capsys, "already holds a run (use --resume")
+
+
+def test_an_evaluation_that_cannot_be_saved_is_printed_whole(run, capsys):
+    with read_only(run):
+        assert dragmesh2(["evaluate", "--checkpoint", str(run), "--damping", "1,2", "--mode", "det", "--episodes",
+                          "2", "--json"]) == 2
+    out, err = capsys.readouterr()
+    result = json.loads(out)
+    assert [c["damping"] for c in result["cells"]] == [1.0, 2.0] and result["cells"][0]["episodes"] == 2
+    (line,) = err.strip().splitlines()
+    assert line.startswith("error: the evaluation was not saved") and "cannot be written" in line
+    assert not (run / "evaluations").exists()
+
+
+def test_view_without_a_display_is_one_line(monkeypatch, capsys):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert dragmesh2(["view", "--object", str(default_object()), "--steps", "1"]) == 2
+    one_error(capsys, "view needs a display (DISPLAY is not set)")
