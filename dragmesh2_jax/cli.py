@@ -63,6 +63,7 @@ from dragmesh2_jax.runs.commands import (
     view_run,
 )
 from dragmesh2_jax.runs.session import Selection
+from dragmesh2_jax.runs.spec import ROBUST_EVERY, SAVE_EVERY
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.trajectory.dataset import build_dataset
@@ -309,7 +310,8 @@ def cmd_train(args) -> int:
     program, logs = train_run(
         args.out, objects, trajectory, args.method, args.backend, args.impl, seeds, args.resume, holdout=args.holdout,
         task_changes=config_changes(args, "task"), scene_changes=config_changes(args, "scene"),
-        network_changes=config_changes(args, "network"), selection=Selection(every=args.robust_every),
+        network_changes=config_changes(args, "network"),
+        selection=None if args.robust_every is None else Selection(every=args.robust_every),
         save_every=args.save_every, progress=not args.quiet, wandb=args.wandb,
         epochs=args.epochs, num_envs=args.num_envs, seed=args.seed, lr_schedule=args.lr_schedule,
         **config_changes(args, "ppo"))
@@ -592,10 +594,12 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--seeds", help="several seeds as one program (e.g. 0,1,2), each in OUT/seed_N; sharded over "
                                      "the devices when they divide the count")
     ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"], help=f"default: {PPOConfig.lr_schedule}")
-    ptr.add_argument("--save-every", type=POSITIVE, default=10, help="epochs between checkpoints")
+    ptr.add_argument("--save-every", type=POSITIVE,
+                     help=f"epochs between checkpoints (default: {SAVE_EVERY}; a resumed run: its own)")
     ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
-    ptr.add_argument("--robust-every", type=NONNEGATIVE, default=Selection.every,
-                     help="epochs between robustness evaluations that select best_robust (0: off)")
+    ptr.add_argument("--robust-every", type=NONNEGATIVE,
+                     help="epochs between robustness evaluations that select best_robust (0: off; default: "
+                          f"{ROBUST_EVERY}; a resumed run: its own)")
     ptr.add_argument("--quiet", action="store_true")
     ptr.add_argument("--wandb", metavar="PROJECT", help="also log the scalars to this Weights & Biases project (the "
                                                          "wandb extra; WANDB_MODE=offline keeps them local)")
@@ -610,8 +614,8 @@ def build_parser() -> argparse.ArgumentParser:
     pft.add_argument("--recipe", required=True, help=" | ".join(FINETUNES))
     pft.add_argument("--out", required=True, help="run folder of the fine-tune")
     pft.add_argument("--epochs", type=POSITIVE, help="epochs to add (default: the preset's, 50)")
-    pft.add_argument("--save-every", type=POSITIVE, default=10, help="epochs between checkpoints")
-    pft.add_argument("--robust-every", type=NONNEGATIVE, default=Selection.every,
+    pft.add_argument("--save-every", type=POSITIVE, default=SAVE_EVERY, help="epochs between checkpoints")
+    pft.add_argument("--robust-every", type=NONNEGATIVE, default=ROBUST_EVERY,
                      help="epochs between robustness evaluations that select best_robust (0: off)")
     pft.add_argument("--quiet", action="store_true")
     pft.add_argument("--object", help="fine-tune onto this object folder instead of the run's own (e.g. a policy "

@@ -51,7 +51,9 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
         stages(1, f"1/4 trained ({epochs} epochs)")
         program, ts, run, ck = load_run(out)  # the checkpoint selected by robustness
         traj = program.task.traj
-        result, _ = evaluate_loaded(program, ts, run, ck, PAPER)
+        result = run.evaluation(ck, PAPER)  # a rerun that trained nothing more keeps its evaluation
+        if result is None or (result.get("epoch"), result.get("run_epochs")) != (int(ts.epoch), run.trained_epochs()):
+            result, _ = evaluate_loaded(program, ts, run, ck, PAPER)
         stages(2, f"2/4 evaluated {ck.name}")
         plot_success(result, out / "success_vs_damping.png")
         used = grasp_picture(program.task, out / "grasp.png", renderer)

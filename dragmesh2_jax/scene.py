@@ -71,8 +71,13 @@ class SceneConfig:
     geometry: GeometryConfig = field(default_factory=GeometryConfig)
 
     def __post_init__(self):
-        if not self.scale > 0:
-            raise DragMeshError(f"scene scale must be positive, got {self.scale}")
+        if not 0 < self.scale < math.inf:
+            raise DragMeshError(f"scene scale must be finite and positive, got {self.scale}")
+        if not all(math.isfinite(x) for x in self.object_pos):
+            raise DragMeshError(f"object_pos must be finite, got {self.object_pos}")
+        if not (0 <= self.armature < math.inf and 0 < self.collision_radius < math.inf):
+            raise DragMeshError(f"armature must be finite and >= 0, collision_radius finite and > 0, got "
+                                f"{self.armature} and {self.collision_radius}")
         if not 0 < self.timestep <= 0.05:
             raise DragMeshError(f"scene timestep must be in (0, 0.05] s, got {self.timestep}")
         if not (math.isfinite(self.damping) and self.damping >= 0):

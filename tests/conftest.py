@@ -6,7 +6,9 @@ import contextlib
 import dataclasses
 import importlib.util
 import os
+import shutil
 import subprocess
+import time
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -42,6 +44,12 @@ def tiny_spec(method: str = "pica", obj: str | None = None, backend: str = "mujo
 def tiny_program(method: str = "pica", obj: str | None = None, backend: str = "mujoco", trajectory=None,
                  task: dict | None = None, impl: str = "jax", **ppo) -> TrainProgram:
     return program_of(tiny_spec(method, obj, backend, task, impl=impl, **ppo), trajectory)
+
+
+def pytest_collection_modifyitems(items):
+    """Tests marked ``long`` (or ``mjx``, which compiles for minutes) first: the workers take whole groups in
+    collection order, so the longest start at once instead of running alone at the end."""
+    items.sort(key=lambda item: not (item.get_closest_marker("long") or item.get_closest_marker("mjx")))
 
 
 def in_ci() -> bool:
@@ -143,6 +151,23 @@ def read_only(folder: Path):
         else:
             for p, mode in modes.items():
                 p.chmod(mode)
+
+
+@pytest.fixture
+def display():
+    """A virtual screen (Xvfb, which CI installs) for the viewer: its DISPLAY name."""
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        if in_ci():
+            pytest.fail("Xvfb is not installed (CI installs it: apt-get install xvfb)")
+        pytest.skip("no Xvfb here")
+    number = 90 + os.getpid() % 9
+    server = subprocess.Popen([xvfb, f":{number}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(1.0)
+    yield f":{number}"
+    server.terminate()
+    server.wait(timeout=10)
 
 
 def installed_command():

@@ -249,7 +249,7 @@ def test_help_shows_every_default():
             if a.default is not None or set(a.option_strings) & named.get(sub.prog, set()):
                 assert "default" in shown, (sub.prog, a.option_strings)
     help_text = _train_parser().format_help()
-    assert "(default: 10)" in help_text and "TaskConfig's 0.05" in help_text
+    assert "(default: auto)" in help_text and "TaskConfig's 0.05" in help_text
 
 
 def test_envelope_prints_the_cells_and_rejects_a_bad_pace(capsys):

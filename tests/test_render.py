@@ -2,7 +2,10 @@
 machine: CI installs libosmesa6), the scene dressed and framed on the hand and the handle, the matplotlib drawing as
 the fallback that says why, and videos whose panels say their damping, step, progress, load and outcome."""
 
-
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -55,6 +58,10 @@ def test_without_gl_the_matplotlib_drawing_stands_in_and_says_why_once(drawer_ta
     t = drawer_task
     used = render.render_pose(t.scene, t.traj.frames[0].hand_q, t.traj.q_start, tmp_path / "b.png", 320, 240)
     assert used == "matplotlib" and (tmp_path / "b.png").read_bytes()[:4] == b"\x89PNG"
+    img = np.asarray(Image.open(tmp_path / "b.png").convert("RGB"))
+    assert img.shape == (240, 320, 3)  # the size asked for
+    assert img.std() > 20 and len(np.unique(img.reshape(-1, 3), axis=0)) > 100  # a drawing, not a blank canvas
+    assert _share_near(img, _rgb(PART_RGBA)) > 0.01  # the target part is drawn, in its colour
 
 
 def test_a_video_puts_the_dampings_side_by_side_and_marks_how_each_ended(drawer_task, tmp_path):
@@ -71,6 +78,35 @@ def test_a_video_puts_the_dampings_side_by_side_and_marks_how_each_ended(drawer_
         assert np.abs(panel.reshape(-1, 3).mean(0) - opened).max() < 40
     top = last[:20, :100].astype(float)
     assert top.mean() > 180  # the overlay box (white, text on it) at the top left
+
+
+@pytest.mark.parametrize("mediapy", ["as installed", "hidden"])
+def test_write_video_writes_an_mp4_or_else_a_gif_of_the_same_frames_beside_it(tmp_path, monkeypatch, mediapy):
+    """``.mp4`` where mediapy and ffmpeg are installed: an MP4 of every frame at the frames' size (decoded back with
+    ffmpeg). Without them (or with mediapy hidden): the GIF beside it, every frame in order at the frames' size and
+    1/fps apart, and no MP4 left behind."""
+    if mediapy == "hidden":
+        monkeypatch.setitem(sys.modules, "mediapy", None)  # ``import mediapy`` raises ImportError
+    colours = [(200, 40, 40), (40, 160, 60), (40, 60, 200), (230, 200, 40), (120, 120, 120)]
+    frames = [Image.new("RGB", (64, 48), c) for c in colours]
+    out = Path(render.write_video(frames, tmp_path / "v.mp4", fps=20))
+    if out.suffix == ".mp4":
+        assert out == tmp_path / "v.mp4" and out.read_bytes()[4:8] == b"ftyp"  # an MP4 container
+        ffmpeg = shutil.which("ffmpeg")  # decoded by ffmpeg itself: mediapy's reader lags ffmpeg's options
+        if ffmpeg:
+            raw = subprocess.run([ffmpeg, "-v", "error", "-i", str(out), "-f", "rawvideo", "-pix_fmt", "rgb24", "-"],
+                                 capture_output=True, check=True).stdout
+            video = np.frombuffer(raw, np.uint8).reshape(-1, 48, 64, 3)
+            assert len(video) == len(frames)
+            np.testing.assert_allclose(video.reshape(5, -1, 3).mean(1), colours, atol=12)  # a lossy codec
+        return
+    assert out == tmp_path / "v.gif" and not (tmp_path / "v.mp4").exists()
+    with Image.open(out) as gif:
+        assert gif.size == (64, 48) and gif.n_frames == len(frames)
+        for k, colour in enumerate(colours):
+            gif.seek(k)
+            assert gif.info["duration"] == 50  # ms: 20 frames per second
+            assert np.abs(np.asarray(gif.convert("RGB")).reshape(-1, 3) - colour).max() <= 8
 
 
 def test_annotations_and_the_outcome_banner():

@@ -253,6 +253,24 @@ def find_urdf(folder: Path) -> Path:
     raise DragMeshError(f"{folder}: no URDF found (expected {' or '.join(URDF_CANDIDATES)})")
 
 
+#: The largest joint limit read: a revolute joint turns at most a full turn either way; a prismatic part of an
+#: object in GAPartNet's unit-sized frame slides at most this far.
+MAX_REVOLUTE_LIMIT, MAX_PRISMATIC_LIMIT = 2 * np.pi, 10.0
+
+
+def _limit(lim, key: str, jtype: str, where: str) -> float:
+    """A joint's ``<limit lower/upper>`` (0 where absent): a finite number within a joint's possible motion."""
+    text = lim.get(key, "0") if lim is not None else "0"
+    try:
+        value = float(text)
+    except ValueError:
+        raise DragMeshError(f"{where}: limit {key}={text!r} is not a number") from None
+    bound = MAX_PRISMATIC_LIMIT if jtype == "prismatic" else MAX_REVOLUTE_LIMIT
+    if not abs(value) <= bound:
+        raise DragMeshError(f"{where}: limit {key}={text!r} is not a finite number within +-{bound:g}")
+    return value
+
+
 def parse_urdf(urdf: Path) -> tuple[dict[str, Link], tuple[Joint, ...], str]:
     """Links (meshes and closed-configuration poses), joints (object frame), and the root link name."""
     try:
@@ -300,8 +318,7 @@ def parse_urdf(urdf: Path) -> tuple[dict[str, Link], tuple[Joint, ...], str]:
         if jtype in MOVABLE and np.linalg.norm(axis) < 1e-9:
             raise DragMeshError(f"{where}: zero joint axis")
         lim = j.find("limit")
-        lower = float(lim.get("lower", 0.0)) if lim is not None else 0.0
-        upper = float(lim.get("upper", 0.0)) if lim is not None else 0.0
+        lower, upper = (_limit(lim, k, jtype, where) for k in ("lower", "upper"))
         if jtype == "continuous":
             lower, upper = (lower, upper) if upper > lower else (0.0, np.pi)
         joints_raw.append((name, jtype, p, c, _origin(j.find("origin"), where), axis / max(np.linalg.norm(axis), 1e-12),
@@ -343,6 +360,23 @@ def _aabb_corners(lo, hi) -> np.ndarray:
                      [x1, y1, z1], [x1, y0, z1], [x1, y0, z0], [x1, y1, z0]], dtype=np.float64)
 
 
+#: How far (a fraction of the link's mesh bounds' diagonal) an annotated box's centre may lie outside those bounds.
+BOX_SLACK = 0.05
+
+
+def _box_on_link(bbox: np.ndarray, link: Link, where: str) -> None:
+    """An annotated part's box must sit on its link's meshes (the handle frame and the grasp normal come from it)."""
+    v = load_link_vertices(link)
+    if not len(v):
+        return
+    lo, hi = v.min(0), v.max(0)
+    slack = BOX_SLACK * np.linalg.norm(hi - lo)
+    centre = bbox.mean(0)
+    if np.any(centre < lo - slack) or np.any(centre > hi + slack):
+        raise DragMeshError(f"{where}: the annotated box (centre {np.round(centre, 3).tolist()}) lies off its link's "
+                            f"meshes (bounds {np.round(lo, 3).tolist()} to {np.round(hi, 3).tolist()})")
+
+
 def read_parts(folder: Path, links: dict[str, Link]) -> list[Part]:
     """GAPartNet parts from ``link_annotation_gapartnet.json``; without it, from ``semantics*.txt`` and the
     links' mesh bounding boxes (then the corner order carries no meaning; the front face is re-derived)."""
@@ -365,6 +399,7 @@ def read_parts(folder: Path, links: dict[str, Link]) -> list[Part]:
                 raise DragMeshError(f"{path}: entry {i} ({e['link_name']}) bbox is not 8 finite corners")
             if e["link_name"] not in links:
                 raise DragMeshError(f"{path}: entry {i} names link {e['link_name']!r}, which the URDF lacks")
+            _box_on_link(bbox, links[e["link_name"]], f"{path}: entry {i} ({e['link_name']})")
             parts.append(Part(e["link_name"], str(e.get("category", "")), bbox))
         return parts
     sem = folder / "semantics_gapartnet.txt"
@@ -528,7 +563,7 @@ def select_target(parts: list[Part], joints: tuple[Joint, ...], joint_name: str 
         part = driven[0]
     joint = driving_joint(part.link, joints)
     assert joint is not None
-    if joint.upper - joint.lower <= 1e-6:
+    if not joint.upper - joint.lower > 1e-6:
         raise DragMeshError(f"joint {joint.name}: zero motion range [{joint.lower}, {joint.upper}]")
     normal = front_normal(part, joint)
     face = front_face_centre(part, normal)

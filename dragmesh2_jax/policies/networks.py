@@ -16,6 +16,7 @@ damping and friction multipliers and the contact load; the actor never sees them
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -24,6 +25,7 @@ import jax
 import jax.numpy as jnp
 
 from dragmesh2_jax.assets.hand import NUM_DOFS
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.controller import Policy
 from dragmesh2_jax.policies.gla import GatedLinearAttention, TokenWindows
 from dragmesh2_jax.policies.init import TORCH_LINEAR_INIT, Dense
@@ -42,6 +44,13 @@ class NetworkConfig:
     heads: int = 4  # GLA / attention heads
     log_std_init: float = -2.0  # the state-independent log std (std 0.135)
     critic_sizes: tuple[int, ...] = (512, 256)  # the privileged critic's MLP
+
+    def __post_init__(self):
+        if min((*self.state_sizes, *self.critic_sizes, self.hist_dim, self.heads), default=1) < 1:
+            raise DragMeshError(f"network sizes and heads must be >= 1, got state_sizes {self.state_sizes}, "
+                                f"critic_sizes {self.critic_sizes}, hist_dim {self.hist_dim}, heads {self.heads}")
+        if not math.isfinite(self.log_std_init):
+            raise DragMeshError(f"log_std_init must be finite, got {self.log_std_init}")
 
 
 class MLP(nn.Module):

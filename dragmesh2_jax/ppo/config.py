@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import jax.numpy as jnp
@@ -42,8 +43,12 @@ class PPOConfig:
                                 f"{self.num_minibatches} minibatches")
         if self.lr_schedule not in ("adaptive", "fixed"):
             raise DragMeshError(f"lr_schedule must be 'adaptive' or 'fixed', got {self.lr_schedule!r}")
-        if not self.lr > 0:
-            raise DragMeshError(f"lr must be > 0, got {self.lr}")
+        if not 0 < self.lr < math.inf:
+            raise DragMeshError(f"lr must be finite and > 0, got {self.lr}")
+        if not (0 <= self.gamma <= 1 and 0 <= self.gae_lambda <= 1):
+            raise DragMeshError(f"gamma and gae_lambda must be in [0, 1], got {self.gamma} and {self.gae_lambda}")
+        if not 0 < self.clip_eps < math.inf:
+            raise DragMeshError(f"clip_eps must be finite and > 0, got {self.clip_eps}")
 
     def aux_weight_at(self, epoch):
         """w_aux(epoch): 0 -> aux_weight, linear over ``aux_warmup`` (epochs counted from 0)."""

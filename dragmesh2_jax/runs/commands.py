@@ -96,8 +96,8 @@ DEFAULT_METHOD = "pica"  # what ``train`` trains when no --method is given
 def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str | None = None,
               backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
               task_changes: dict | None = None, scene_changes: dict | None = None,
-              network_changes: dict | None = None, selection: Selection = Selection(), save_every: int = 10,
-              progress: bool = True, wandb: str | None = None, holdout: int = 0,
+              network_changes: dict | None = None, selection: Selection | None = None,
+              save_every: int | None = None, progress: bool = True, wandb: str | None = None, holdout: int = 0,
               **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
     record (``resume``: ``ppo["epochs"]`` extends it; a method, object or config value that differs from the record
@@ -272,15 +272,15 @@ def view_run(checkpoint: str | None, object_dir: str | None, trajectory: str | N
     """``dragmesh2 view``: a run's deterministic policy (on its own object, or on ``object_dir``), or without a
     checkpoint the expert drag on ``object_dir``, in MuJoCo's viewer from the evaluation's perturbed starts; returns
     the control steps shown."""
+    if not checkpoint and not object_dir:
+        raise DragMeshError("give --checkpoint (a trained run), --object (the expert drag on it), or both")
     require_display()  # before anything is loaded or compiled
     if checkpoint:
         program, ts, _, _ = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
         task, controller = program.task, program.controller(ts)
-    elif object_dir:
+    else:
         task = load_task(object_dir, trajectory, backend or "mujoco", impl)
         controller = tracking.tracking_controller(task)
-    else:
-        raise DragMeshError("give --checkpoint (a trained run), --object (the expert drag on it), or both")
     return view(PAPER.task(task), controller, damping, steps)
 
 

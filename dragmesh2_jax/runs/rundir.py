@@ -111,10 +111,12 @@ class RunDir:
     def spec(self) -> RunSpec:
         return RunSpec.from_record(self.record(), where=str(self.record_path))
 
-    def extend_schedule(self, epochs: int) -> None:
-        """A resume that trains further: the record's schedule becomes ``epochs`` (rewritten whole, atomically)."""
+    def revise(self, spec: RunSpec) -> None:
+        """A resume that trains further or checks otherwise: the record's schedule (epochs, save and robustness
+        intervals) becomes ``spec``'s, rewritten whole and atomically; the rest of the record stands."""
         record = dict(self.record())
-        record["ppo"] = {**record["ppo"], "epochs": epochs}
+        record["ppo"] = {**record["ppo"], "epochs": spec.ppo.epochs}
+        record["schedule"] = {"save_every": spec.save_every, "robust_every": spec.robust_every}
         atomic_write_json(self.record_path, record)
         self._record = None
 

@@ -10,6 +10,7 @@ divide the seeds); each seed has its own run folder, so evaluation and fine-tune
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import time
 from dataclasses import dataclass
@@ -37,7 +38,7 @@ from dragmesh2_jax.ppo.train import (
 from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.runs.build import programs_of
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
-from dragmesh2_jax.runs.spec import RunSpec
+from dragmesh2_jax.runs.spec import ROBUST_EVERY, RunSpec
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 
@@ -47,7 +48,7 @@ class Selection:
     selection protocol, and ``best_robust`` keeps the best by mean, then worst success, ties by lower active
     clip099."""
 
-    every: int = 10
+    every: int = ROBUST_EVERY
     protocol: EvalProtocol = SELECTION
 
     @staticmethod
@@ -99,7 +100,7 @@ class _Progress:
 def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] | None = None,
                     trajectory: str | Trajectory | None = None, resume: bool | None = None,
                     start: TrainState | None = None, epochs: int | None = None, backend: str | None = None,
-                    impl: str = "jax", save_every: int = 10, selection: Selection = Selection(),
+                    impl: str = "jax", save_every: int | None = None, selection: Selection | None = None,
                     progress: bool = True, log_fn=None, wandb: str | None = None
                     ) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
     """Train the runs in ``runs`` (one per seed, as one program) to ``epochs`` (default: the spec's), holding each
@@ -109,15 +110,17 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
     ``spec`` may be None); False starts new runs of ``spec`` (a folder that holds a run with a checkpoint is an
     error); None resumes when every folder has a checkpoint and starts otherwise. A run stopped before its first
     checkpoint, whatever stopped it, starts again either way (resumed, from its record). ``start``: a fine-tune's
-    first state (one run). ``backend``: resume on this engine instead of the recorded task's. ``wandb``: a W&B
-    project that gets the same scalars as TensorBoard. A resume to more epochs than the record's extends its
-    schedule. Returns the program, the final state (leading run axis) and each run's log rows."""
+    first state (one run). ``backend``: resume on this engine instead of the recorded task's. ``save_every`` and
+    ``selection.every``: the checkpoint and robustness intervals (None: the spec's, or a resumed run's own); a
+    resume to more epochs or with other intervals revises the record's schedule. ``wandb``: a W&B project that
+    gets the same scalars as TensorBoard. Returns the program, the final state (leading run axis) and each run's log
+    rows."""
     seeds = list(seeds) if seeds is not None else [spec.ppo.seed] if spec else None
     if not runs or (seeds is not None and len(seeds) != len(runs)):
         raise DragMeshError("one run folder per seed, at least one")
     if start is not None and len(runs) != 1:
         raise DragMeshError("a fine-tune continues one run, not several seeds")
-    if save_every < 1:
+    if save_every is not None and save_every < 1:
         raise DragMeshError(f"save_every must be >= 1, got {save_every}")
     if wandb:
         wandb_module()  # before anything is written: a missing extra leaves no folder behind
@@ -126,6 +129,14 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
             locks.enter_context(r.writing())
         return _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backend, impl, save_every,
                                 selection, progress, log_fn, wandb)
+
+
+def _scheduled(spec: RunSpec, epochs: int | None, save_every: int | None, selection: Selection | None) -> RunSpec:
+    """``spec`` with the schedule a command asks for (None: as it is)."""
+    return dataclasses.replace(
+        spec, ppo=dataclasses.replace(spec.ppo, epochs=epochs or spec.ppo.epochs),
+        save_every=save_every or spec.save_every,
+        robust_every=spec.robust_every if selection is None else selection.every)
 
 
 def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backend, impl, save_every, selection,
@@ -144,6 +155,10 @@ def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backe
         recorded_spec = runs[0].spec()
         spec = recorded_spec.on(backend, impl) if backend else recorded_spec
         seeds = [r.spec().ppo.seed for r in runs]
+        for r in runs[1:]:  # seeds of one program: the same run but for the seed
+            if r.spec().with_seed(seeds[0]) != recorded_spec:
+                raise DragMeshError(f"{r.path}: its record differs from {runs[0].path}'s in more than the seed: not "
+                                    "seeds of one run, so they cannot resume as one program")
         done = max(common, max(r.trained_epochs() for r in runs))
         if epochs is not None and epochs < done:
             raise DragMeshError(f"{runs[0].path}: already trained {done} epochs; --epochs {epochs} would undo "
@@ -154,12 +169,14 @@ def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backe
         ts = stack_runs(states)
         rows = [r.log_rows(common) for r in runs]
         robust_rows = [r.robust_rows(common) for r in runs]
-        if epochs is not None and epochs > recorded_spec.ppo.epochs:
+        spec = _scheduled(spec, max(epochs or 0, recorded_spec.ppo.epochs), save_every, selection)
+        if spec.schedule != recorded_spec.schedule:
             for r in runs:
-                r.extend_schedule(epochs)
+                r.revise(spec)
     else:
         if spec is None:
             raise DragMeshError("a new run needs its spec")
+        spec = _scheduled(spec, max(epochs or 0, spec.ppo.epochs), save_every, selection)
         for r in runs:
             if r.exists() and r.epoch_checkpoints():
                 raise DragMeshError(f"{r.path}: already holds a run (use --resume, or another --out)")
@@ -171,8 +188,9 @@ def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backe
         ts = init_runs(program, program.data(len(seeds)), seed_keys(seeds)) if start is None else stack_runs([start])
         rows, robust_rows = [[] for _ in runs], [[] for _ in runs]
     target = epochs or spec.ppo.epochs
-    ts = _loop(program, runs, ts, rows, robust_rows, target, resume, save_every, selection, progress, log_fn, wandb,
-               heldout)
+    selection = Selection(every=spec.robust_every, protocol=(selection or Selection()).protocol)
+    ts = _loop(program, runs, ts, rows, robust_rows, target, resume, spec.save_every, selection, progress, log_fn,
+               wandb, heldout)
     return program, ts, rows
 
 

@@ -24,6 +24,8 @@ from dragmesh2_jax.runs.record import config_from_dict, config_to_dict, versions
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig
 
+SAVE_EVERY = 10  # epochs between a run's checkpoints
+ROBUST_EVERY = 10  # epochs between the robustness checks that select best_robust (paper App. B.3)
 RECORD_FORMAT = 3  # 3: the network config; 2: without it (the default sizes)
 READABLE_FORMATS = (2, 3)
 RECORD_KEYS = ("method", "object", "ppo", "task")  # what every record must have
@@ -41,8 +43,13 @@ class RunSpec:
     parent: str | None = None  # the checkpoint a fine-tune continues
     objects: tuple[str, ...] = ()  # a run over several objects: all of them, ``object`` first (empty: one object)
     holdout: int = 0  # the last ``holdout`` of ``objects`` are held aside: best_robust is chosen on them
+    save_every: int = SAVE_EVERY  # epochs between checkpoints (and the last epoch)
+    robust_every: int = ROBUST_EVERY  # epochs between robustness checks (and the last epoch); 0: none
 
     def __post_init__(self):
+        if self.save_every < 1 or self.robust_every < 0:
+            raise DragMeshError(f"save_every must be >= 1 and robust_every >= 0, got {self.save_every} and "
+                                f"{self.robust_every}")
         if self.objects and self.objects[0] != self.object:
             raise DragMeshError("a run's objects list starts with its object")
         if not 0 <= self.holdout < max(len(self.objects), 1):
@@ -57,6 +64,11 @@ class RunSpec:
     @property
     def heldout_objects(self) -> tuple[str, ...]:
         return self.objects[len(self.objects) - self.holdout:] if self.holdout else ()
+
+    @property
+    def schedule(self) -> tuple[int, int, int]:
+        """(epochs, save_every, robust_every): what a resume may change."""
+        return self.ppo.epochs, self.save_every, self.robust_every
 
     @property
     def preset(self) -> Method:
@@ -97,6 +109,7 @@ class RunSpec:
         return {"format": RECORD_FORMAT, "method": self.method, "object": str(Path(self.object).resolve()),
                 "objects": objects, "holdout": self.holdout,
                 "finetune": self.finetune, "parent": self.parent, "backend": backend, "buffers": buffers,
+                "schedule": {"save_every": self.save_every, "robust_every": self.robust_every},
                 "ppo": config_to_dict(self.ppo), "task": config_to_dict(self.task),
                 "scene": config_to_dict(self.scene), "network": config_to_dict(self.network), "versions": versions()}
 
@@ -128,12 +141,19 @@ class RunSpec:
         holdout = record.get("holdout", 0)
         if not isinstance(holdout, int):
             raise DragMeshError(f"{where}: holdout must be a whole number, got {holdout!r}")
+        schedule = record.get("schedule") or {}  # runs recorded before it kept the defaults
+        if not isinstance(schedule, dict) or not all(isinstance(schedule.get(k, 0), int) and not isinstance(
+                schedule.get(k, 0), bool) for k in ("save_every", "robust_every")):
+            raise DragMeshError(f"{where}: schedule must hold whole numbers save_every and robust_every, got "
+                                f"{schedule!r}")
         return cls(method=record["method"], object=record["object"], objects=tuple(o["folder"] for o in objects),
                    holdout=holdout, ppo=config_from_dict(PPOConfig, record["ppo"], where),
                    task=config_from_dict(TaskConfig, record["task"], where),
                    scene=config_from_dict(SceneConfig, record.get("scene", {}), where),
                    network=config_from_dict(NetworkConfig, record.get("network", {}), where),
-                   finetune=record.get("finetune"), parent=record.get("parent"))
+                   finetune=record.get("finetune"), parent=record.get("parent"),
+                   save_every=schedule.get("save_every", SAVE_EVERY),
+                   robust_every=schedule.get("robust_every", ROBUST_EVERY))
 
 
 def method_spec(method: str, object_dir: str | list[str], ppo: dict | None = None, task: dict | None = None,

@@ -12,6 +12,7 @@ from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS
 from dragmesh2_jax.trajectory.schema import RHO
 
 BACKENDS = ("auto", "mjx", "mujoco")
+MAX_ALPHA = 1.0  # the largest action increment (m or rad per control step); the paper's is 0.05
 IMPLS = ("jax", "warp")
 
 
@@ -147,8 +148,11 @@ class TaskConfig:
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     def __post_init__(self):
-        if not self.alpha > 0:
-            raise DragMeshError(f"alpha must be > 0, got {self.alpha}")
+        if not 0 < self.alpha <= MAX_ALPHA:
+            raise DragMeshError(f"alpha must be in (0, {MAX_ALPHA:g}] (m or rad per step), got {self.alpha}")
+        if not (0 < self.control_dt < math.inf and 0 < self.d_detach < math.inf):
+            raise DragMeshError(f"control_dt and d_detach must be finite and > 0, got {self.control_dt} and "
+                                f"{self.d_detach}")
         if self.backend not in BACKENDS:
             raise DragMeshError(f"unknown backend {self.backend!r} (choose from {', '.join(BACKENDS)})")
         if self.impl not in IMPLS:

@@ -1,14 +1,74 @@
 """Procedural GAPartNet-format objects round-trip through the same loader as real data."""
 
+import mujoco
 import numpy as np
 import pytest
 
 from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.assets.gapartnet import load_gapartnet, load_link_vertices, opening_direction
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.scene import TARGET_BODY, build_scene
 
 KIND = {"drawer": ("slider_drawer", False), "side_door": ("hinge_door", True),
         "bottom_door": ("hinge_door", True), "lid": ("hinge_lid", True)}
+STANDOFF = 0.05  # m (unscaled): the generator's handles stand at most 0.09 m proud, their box centres half that
+
+
+def _box_frame(bbox: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit edge directions and edge lengths of an 8-corner box (edges from corner 0 to corners 1, 3, 4)."""
+    edges = np.stack([bbox[1] - bbox[0], bbox[3] - bbox[0], bbox[4] - bbox[0]])
+    lengths = np.linalg.norm(edges, axis=1)
+    return edges / lengths[:, None], lengths
+
+
+def _world_box(scene, geoms) -> tuple[np.ndarray, np.ndarray, mujoco.MjData]:
+    """The world-aligned bounds of ``geoms`` at the scene's closed configuration, and that configuration."""
+    d = scene.initial_data()
+    mujoco.mj_forward(scene.model, d)
+    signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
+    aabb = scene.model.geom_aabb
+    pts = np.concatenate([(aabb[g, :3] + signs * aabb[g, 3:]) @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g]
+                          for g in geoms])
+    return pts.min(0), pts.max(0), d
+
+
+def assert_a_sound_target(obj, kind: str) -> None:
+    """The loaded object's target fits its kind of moving part, and its scene places the handle on that part:
+
+    * the part's GAPartNet category and its joint's type are the kind's (a drawer slides, a door or lid turns);
+    * the joint's range is finite and positive: a door or lid opens by more than a quarter turn and at most half a
+      turn, a drawer slides out by at most its depth (the part box's extent along the slide);
+    * the handle is welded to the part and lies within the part's box, standing at most STANDOFF proud of it;
+    * in the built scene the handle site is the scaled handle centre, on the target body (it moves with the part),
+      at most STANDOFF (scaled) from the part's own geoms; the scene's range is the joint's (a slide's scaled)."""
+    t, h = obj.target, obj.target.handle
+    part_category, revolute = KIND[kind]
+    assert t.part.category == part_category
+    assert t.joint.type == ("revolute" if revolute else "prismatic")
+    lo, hi = t.joint.lower, t.joint.upper
+    assert np.isfinite([lo, hi]).all() and hi > lo
+    dirs, lengths = _box_frame(t.part.bbox)
+    if revolute:
+        assert np.pi / 2 < hi - lo <= np.pi
+    else:
+        assert hi - lo <= lengths[np.argmax(np.abs(dirs @ t.joint.axis))]
+    assert h.link in t.attached_links and h.link != t.part.link
+    proud = np.abs(dirs @ (h.centre - t.part.centre)) - lengths / 2
+    assert 0 < proud.max() <= STANDOFF
+
+    scene = build_scene(obj, use_cache=False)
+    s, m, ids = scene.config.scale, scene.model, scene.ids
+    part_geoms = [g for g in range(m.ngeom)
+                  if (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "").startswith(f"{t.part.link}_")]
+    assert part_geoms
+    box_lo, box_hi, d = _world_box(scene, part_geoms)
+    site = d.site_xpos[ids.handle_site]
+    np.testing.assert_allclose(site, scene.handle.centre, atol=1e-6)
+    np.testing.assert_allclose(site, np.asarray(scene.config.object_pos) + s * h.centre, atol=1e-6)
+    assert m.site_bodyid[ids.handle_site] == mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, TARGET_BODY)
+    assert np.linalg.norm(np.maximum(np.maximum(box_lo - site, site - box_hi), 0)) <= s * STANDOFF
+    assert ids.target_is_revolute == revolute
+    assert ids.target_range == pytest.approx((lo, hi) if revolute else (s * lo, s * hi))
 
 
 @pytest.mark.parametrize("category", list(procedural.CATEGORIES))
@@ -32,6 +92,7 @@ def test_every_category_round_trips(tmp_path, category):
     # +q opens: the handle moves out of the front (or up, for a lid)
     move = opening_direction(t.part, t.joint, t.handle.centre)
     assert move @ ([0, 0, 1.0] if kind == "lid" else [-1.0, 0, 0]) > 0.9
+    assert_a_sound_target(obj, kind)
 
 
 def test_dishwasher_door_opens_downward(tmp_path):
@@ -71,12 +132,20 @@ def test_synthesize_is_resumable_and_never_overwrites(tmp_path):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temp folders left
 
 
-def test_packaged_defaults_load():
-    names = {p.name for p in procedural.default_objects_dir().iterdir() if p.is_dir()}
-    assert {"drawer_cabinet_0000", "door_cabinet_0000", "dishwasher_0000"} <= names
-    for n in names:
-        load_gapartnet(procedural.default_objects_dir() / n)
+def test_the_packaged_objects_are_the_defaults():
+    names = {p.name for p in procedural.default_objects()}
+    assert {"drawer_cabinet_0000", "door_cabinet_0000", "dishwasher_0000", procedural.HEAVY_DRAWER} <= names
     assert procedural.default_object().name == "drawer_cabinet_0000"
+
+
+@pytest.mark.parametrize("folder", procedural.default_objects(), ids=lambda p: p.name)
+def test_a_packaged_object_loads_with_a_sound_target(folder):
+    """Each packaged object is its generator category's object (``<category>_<seed>``), with a sound target and
+    scene (``assert_a_sound_target``)."""
+    model_category, kind = procedural.CATEGORIES[folder.name.rsplit("_", 1)[0]]
+    obj = load_gapartnet(folder)
+    assert obj.category == model_category and obj.object_id == folder.name
+    assert_a_sound_target(obj, kind)
 
 
 def test_cli_synth(tmp_path, capsys):

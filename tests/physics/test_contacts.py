@@ -1,14 +1,23 @@
 """MJX's buffers are sized from a probe of the expert drag (physics/contacts.py): the probe counts what the C engine
 finds, the budget adds a margin, MJX-JAX keeps that many contact slots, and a world that needs more is reported."""
 
+import dataclasses
+
+import jax
+import jax.numpy as jnp
 import pytest
 
+from dragmesh2_jax.bench import bench_env
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.contacts import ContactBudget
 from dragmesh2_jax.physics.mjx_backend import MjxBackend
+from dragmesh2_jax.policies.methods import get_method
+from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.train import init_jit, make_train, stack_runs, train
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask, contact_budget, reset_starts
+from tests.conftest import TINY_NET
 
 
 def test_the_probe_counts_the_grasp_and_the_budget_adds_its_margin(drawer_task):
@@ -49,3 +58,29 @@ def test_an_overflow_is_one_clear_error(drawer_task):
     task.check_overflow(0, "evaluation")
     with pytest.raises(DragMeshError, match=r"in 3 world-steps \(evaluation\).*40 contacts.*--task\.contacts"):
         task.check_overflow(3, "evaluation")
+
+
+class _Overflowing:
+    """Wraps an engine: every world-step overflows its buffers (as an MJX world with too few contact slots)."""
+
+    def __init__(self, real):
+        self.real = real
+        self.budget = ContactBudget.of(4, 16, candidates=238, limited_dofs=52)
+
+    def __getattr__(self, name):
+        return getattr(self.real, name)
+
+    def overflow(self, data, ps):
+        return jnp.bool_(True)
+
+
+def test_an_overflow_stops_training_and_a_benchmark_not_only_an_evaluation(drawer_task):
+    task = drawer_task.bind(drawer_task.data)
+    task.backend = _Overflowing(drawer_task.backend)
+    with pytest.raises(DragMeshError, match=r"overflowed in 4 world-steps \(bench env\)"):
+        bench_env(task, num_envs=2, steps=2)
+    method = dataclasses.replace(get_method("state_only"), network=TINY_NET)
+    program = make_train(task, method, PPOConfig(num_envs=2, rollout_len=4, epochs=1))
+    ts = init_jit(program, program.data(), jax.random.PRNGKey(0))
+    with pytest.raises(DragMeshError, match=r"overflowed in 8 world-steps \(epoch 1\)"):
+        train(program, program.data(1), stack_runs([ts]), 1)

@@ -5,9 +5,11 @@ full disk, an interrupt) are one ``error:`` line with nothing lost."""
 import errno
 import json
 import shutil
+import struct
 import sys
 
 import pytest
+from tensorboardX.proto import event_pb2
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.runs.rundir import RunDir
@@ -36,7 +38,7 @@ def one_error(capsys, fragment: str) -> str:
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs") / "pica"
-    assert train(out, "--save-every", "1") == 0
+    assert train(out, "--save-every", "1", "--robust-every", "1") == 0
     return out
 
 
@@ -79,13 +81,13 @@ def test_a_full_disk_is_one_line_and_the_same_run_resumes_once_there_is_space(ru
         real(self, rows)
     real = RunDir.write_log
     monkeypatch.setattr(RunDir, "write_log", write_log)
-    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "5", "--save-every", "1", "--quiet"]) == 2
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "4", "--save-every", "1", "--quiet"]) == 2
     one_error(capsys, "No space left on device; free some space and run the same command again")
     assert sorted(RunDir(run).epoch_checkpoints()) == [1, 2, 3]  # earlier checkpoints stand, readable
     assert not [p for p in run.rglob("*") if p.name.endswith(".tmp")]  # no temporary file left behind
     monkeypatch.undo()
-    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "5", "--quiet"]) == 0
-    assert [r["epoch"] for r in RunDir(run).log_rows()] == [1, 2, 3, 4, 5]
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "4", "--quiet"]) == 0
+    assert [r["epoch"] for r in RunDir(run).log_rows()] == [1, 2, 3, 4]
 
 
 def test_a_run_stopped_before_its_first_checkpoint_restarts_with_the_same_command(tmp_path, monkeypatch, capsys):
@@ -143,8 +145,53 @@ def test_an_evaluation_that_cannot_be_saved_is_printed_whole(run, capsys):
     assert not (run / "evaluations").exists()
 
 
-def test_view_without_a_display_is_one_line(monkeypatch, capsys):
-    monkeypatch.delenv("DISPLAY", raising=False)
-    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
-    assert dragmesh2(["view", "--object", str(default_object()), "--steps", "1"]) == 2
-    one_error(capsys, "view needs a display (DISPLAY is not set)")
+def test_seed_folders_that_disagree_do_not_resume_as_one_program(trained, tmp_path, capsys):
+    for seed in (0, 1):
+        shutil.copytree(trained, tmp_path / "runs" / f"seed_{seed}")
+    for seed, alpha in ((0, 0.05), (1, 0.03)):  # seed 1 was trained with another task
+        path = tmp_path / "runs" / f"seed_{seed}" / "run.json"
+        record = json.loads(path.read_text())
+        record["ppo"]["seed"], record["task"]["alpha"] = seed, alpha
+        path.write_text(json.dumps(record))
+    assert dragmesh2(["train", "--out", str(tmp_path / "runs"), "--seeds", "0,1", "--resume", "--epochs", "3"]) == 2
+    one_error(capsys, "differs from")
+
+
+def tensorboard(folder) -> dict[str, list[int]]:
+    """tag -> steps as TensorBoard shows them: a resumed writer's purge (a session start at step s) drops the steps
+    >= s written before it."""
+    out: dict[str, list[int]] = {}
+    for f in sorted(folder.glob("events.out.tfevents.*")):
+        data, i = f.read_bytes(), 0
+        while i < len(data):
+            (n,) = struct.unpack("<Q", data[i:i + 8])
+            event = event_pb2.Event.FromString(data[i + 12:i + 12 + n])
+            i += 12 + n + 4
+            if event.HasField("session_log") and event.session_log.status == event_pb2.SessionLog.START:
+                out = {tag: [s for s in steps if s < event.step] for tag, steps in out.items()}
+            for v in event.summary.value:
+                out.setdefault(v.tag, []).append(event.step)
+    return out
+
+
+def test_a_resume_after_a_lost_checkpoint_purges_tensorboard_and_carries_best_robust(run):
+    """A run stopped after its epoch-2 log but before that checkpoint resumes from epoch 1: the scalars past it are
+    dropped and written again, and best_robust is chosen over the robustness rows before and after the resume."""
+    shutil.rmtree(RunDir(run).checkpoint("epoch_0002"))
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet"]) == 0
+    tags = tensorboard(run / "tb")
+    assert tags["train/reward"] == [1, 2, 3] and tags["robust/mean_success"] == [1, 2, 3]
+    rows = RunDir(run).robust_rows()
+    assert [r["epoch"] for r in rows] == [1, 2, 3]
+    best = max(rows, key=lambda r: (r["mean_success"], r["worst_success"], -r["clip099_active"]))
+    assert [r["epoch"] for r in rows if r["selected"]][-1] == best["epoch"]
+    assert rows[0]["selected"] and sum(r["selected"] for r in rows) == 1 + sum(
+        (r["mean_success"], r["worst_success"], -r["clip099_active"]) >
+        max((q["mean_success"], q["worst_success"], -q["clip099_active"]) for q in rows[:i]) for i, r in
+        enumerate(rows) if i)
+
+
+def test_a_run_folder_on_read_only_storage_is_one_line(run, capsys):
+    with read_only(run):
+        assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3"]) == 2
+    one_error(capsys, "cannot be written (")

@@ -1,0 +1,122 @@
+"""The README's command block runs as written, in order, as a new user would run it: from a folder with ``../shared``
+beside it, each command's output feeding the next (``t.json``, ``objs``, ``runs/...``, ``curves.json``).
+
+Only budgets are appended, where a command would take minutes or hours (``BUDGETS``; argparse keeps the last value
+of a flag, so an appended flag replaces the written one). ``bench env`` is measured on the C engine here: its MJX
+engines compile for minutes on a CPU and are measured by ``tests/test_bench.py`` and
+``tests/physics/test_mjx_backend.py``. The ``reproduce`` plans (hours of training) run with their training and
+evaluation steps replaced by stand-ins that leave what the real ones leave; ``tests/test_reproduce.py`` runs one
+real table. ``view`` opens MuJoCo's viewer on a virtual screen, as its own process."""
+
+import glob
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from dragmesh2_jax import reproduce as reproduce_lib
+from tests.conftest import ROOT, SHARED, installed_command, require_shared
+from tests.test_reproduce import FakeSteps
+
+pytestmark = [pytest.mark.xdist_group(__name__), pytest.mark.long]
+
+dragmesh2 = installed_command()
+TRAIN = ["--epochs", "2", "--num-envs", "2", "--ppo.rollout-len", "8", "--robust-every", "0", "--network.state-sizes",
+         "64,64", "--network.hist-dim", "32", "--network.heads", "2", "--network.critic-sizes", "64"]
+#: Each command of the README's block by its start, in the README's order, with the flags appended for speed.
+BUDGETS = [
+    ("dragmesh2 inspect ", []),
+    ("dragmesh2 objects list", []),
+    ("dragmesh2 objects synth ", ["--category", "drawer_cabinet"]),
+    ("dragmesh2 trajectory ", []),
+    ("dragmesh2 dataset build --objects ", []),
+    ("dragmesh2 dataset build --procedural ", ["--procedural", "1"]),
+    ("dragmesh2 evaluate --method tracking ", ["--episodes", "1"]),
+    ("dragmesh2 evaluate --method parallel_jaw ", ["--episodes", "1"]),
+    ("dragmesh2 envelope ", ["--paces", "1", "--damping", "1"]),
+    ("dragmesh2 bench env ", ["--backend", "mujoco", "--num-envs", "1", "--steps", "2"]),
+    ("dragmesh2 train --method pica --object ../shared/gapartnet/45261 --out runs/pica_45261", TRAIN),
+    ("dragmesh2 train --out runs/pica_45261 --resume", ["--epochs", "3"]),
+    ("dragmesh2 train --method recommended ", TRAIN),
+    ("dragmesh2 train --method pica --object ../shared/gapartnet/45261 --out runs/x ", TRAIN),
+    ("dragmesh2 train --method pica --object ../shared/gapartnet/45261 --out runs/pica3 ", TRAIN),
+    ("dragmesh2 train --method pica --objects ", TRAIN),
+    ("dragmesh2 train --method pica --dataset ", TRAIN),
+    ("dragmesh2 evaluate --checkpoint runs/pica_45261 ", ["--episodes", "1"]),
+    ("dragmesh2 evaluate --checkpoint runs/hold/checkpoints/final ", ["--episodes", "1", "--mode", "det"]),
+    ("dragmesh2 evaluate --checkpoint runs/mix ", ["--episodes", "1", "--mode", "det"]),
+    ("dragmesh2 finetune --checkpoint runs/mix ", ["--epochs", "1"]),
+    ("dragmesh2 finetune --checkpoint runs/pica_45261 ", ["--epochs", "1"]),
+    ("dragmesh2 bench train ", ["--num-envs", "2", "--runs", "1", "--epochs", "1"]),
+    ("dragmesh2 bench learning --record ", ["--epochs", "1", "--seeds", "0"]),
+    ("dragmesh2 bench learning --against ", []),
+    ("dragmesh2 video ", ["--damping", "1,2", "--every", "100"]),
+    ("dragmesh2 view --checkpoint ", ["--steps", "3"]),
+    ("dragmesh2 view --object ", ["--steps", "3"]),
+    ("dragmesh2 reproduce main ablation --objects ", []),
+    ("dragmesh2 reproduce main ablation --out rep --tables-only", []),
+    ("dragmesh2 reproduce main --methods state_only,pica,pica_load ", []),
+    ("dragmesh2 reproduce main --methods recommended ", []),
+    ("dragmesh2 reproduce generalist ", ["--train-objects", "2", "--holdout", "1"]),
+    ("dragmesh2 reproduce scaling ", ["--scaling", "1,2"]),
+    ("dragmesh2 reproduce all ", ["--train-objects", "2", "--holdout", "1"]),
+]
+
+
+def readme_commands() -> list[str]:
+    """The commands of the README's command block (after ``## Command line``), comments cut."""
+    text = (ROOT / "README.md").read_text()
+    block = text.split("## Command line", 1)[1].split("```bash\n", 1)[1].split("```", 1)[0]
+    return [re.split(r"\s+#", line, maxsplit=1)[0].strip() for line in block.splitlines()
+            if line.startswith("dragmesh2 ")]
+
+
+def argv_of(command: str) -> list[str]:
+    """The arguments a shell would pass: words split, globs expanded (sorted, as bash does)."""
+    out = []
+    for word in shlex.split(command)[1:]:
+        out += sorted(glob.glob(word)) or [word] if "*" in word else [word]
+    return out
+
+
+def test_every_command_of_the_block_has_its_budget_in_order():
+    commands = readme_commands()
+    assert len(commands) == len(BUDGETS), [c for c in commands if not any(c.startswith(p) for p, _ in BUDGETS)]
+    for command, (start, _) in zip(commands, BUDGETS, strict=True):
+        assert command.startswith(start), (command, start)
+
+
+def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, display):
+    require_shared(SHARED / "gapartnet")
+    work = tmp_path / "repo"
+    work.mkdir()
+    (tmp_path / "shared").symlink_to(SHARED.resolve())  # ../shared beside the folder the commands run in
+    monkeypatch.chdir(work)
+    fake = FakeSteps()
+    monkeypatch.setattr(reproduce_lib, "_train", fake.train)
+    monkeypatch.setattr(reproduce_lib, "_evaluate", fake.evaluate)
+    env = {**{k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}, "DISPLAY": display}
+    for command, (_, budget) in zip(readme_commands(), BUDGETS, strict=True):
+        argv = argv_of(command) + budget
+        if argv[0] == "view":  # MuJoCo's viewer in its own process, on the virtual screen
+            done = subprocess.run([str(Path(sys.executable).parent / "dragmesh2"), *argv], capture_output=True,
+                                  text=True, env=env, timeout=600)
+            assert done.returncode == 0, (command, done.stderr[-2000:])
+            assert "view: 3 control steps shown" in done.stderr
+            continue
+        assert dragmesh2(argv) == 0, command
+    # what the commands leave is what the README says they leave
+    assert Path("t.json").is_file() and Path("grasp.png").is_file() and Path("envelope.png").is_file()
+    assert Path("dataset/manifest.csv").is_file() and Path("curves.json").is_file()
+    for run in ("pica_45261", "hold", "x", "pica3/seed_2", "mix", "ds", "mix_45780", "pica_45261_aram"):
+        assert Path("runs", run, "checkpoints", "final", "learner").is_dir(), run
+    assert '"epochs": 3' in Path("runs/pica_45261/run.json").read_text()  # the resume extended the record
+    assert list(Path("runs/pica_45261/evaluations").glob("*.json")) and list(Path(".").glob("pica.*"))
+    for table in ("rep/main.md", "rep/ablation.md", "rep2/main.md", "rep4/main.md", "gen/generalist.md",
+                  "scal/scaling.md", "tiny/damping-range.md"):
+        assert Path(table).is_file(), table
+    assert "| state_only | x8 |" in Path("rep2/main.md").read_text()
