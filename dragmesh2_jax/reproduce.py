@@ -54,7 +54,7 @@ from dragmesh2_jax.assets.procedural import table1_mix
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW
 from dragmesh2_jax.baselines.tracking import TRACKING
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.evaluation.evaluate import evaluate, markdown_table
+from dragmesh2_jax.evaluation.evaluate import PHYSICAL, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import MODES, PAPER, PAPER_DAMPINGS, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text, folder_lock
 from dragmesh2_jax.policies.methods import METHODS, RECOMMENDED
@@ -636,6 +636,27 @@ def comparison_table(results: list[dict], labels: list[str], objects: list[str],
     return "\n".join(lines)
 
 
+def physical_table(results: list[dict], labels: list[str], objects: list[str],
+                   dampings: tuple[float, ...] = PAPER_DAMPINGS) -> str:
+    """How each row opened the parts: its det cells' saturation and physical figures (``evaluate.PHYSICAL``), the
+    mean over objects and seeds (penetration: the deepest); '-' where no evaluation has them."""
+    names = [Path(o).name for o in objects]
+    lines = ["| method | damp | clip099 active | " + " | ".join(h for _, h, _ in PHYSICAL) + " |",
+             "|---|---|---|" + "---|" * len(PHYSICAL)]
+    for label in labels:
+        for d in dampings:
+            cs = [c for r in results if r["label"] == label and r["object"] in names for c in r["cells"]
+                  if c["damping"] == d and c["mode"] == "det" and "wrist_load_peak_n" in c]
+            if not cs:
+                lines.append(f"| {label} | x{d:g} | " + " | ".join(["-"] * (len(PHYSICAL) + 1)) + " |")
+                continue
+            pick = {k: max if k == "penetration_max_mm" else np.mean for k, _, _ in PHYSICAL}
+            row = [f"{np.mean([c['clip099_active'] for c in cs]):.2f}"] + [
+                f.format(float(pick[k]([c[k] for c in cs]))) for k, _, f in PHYSICAL]
+            lines.append(f"| {label} | x{d:g} | " + " | ".join(row) + " |")
+    return "\n".join(lines)
+
+
 def _per_seed(results: list[dict], label: str, names: list[str], damping: float, mode: str) -> list[float]:
     """Per seed, the success averaged over the objects (the Avg column's samples)."""
     seeds = sorted({r["seed"] for r in results if r["label"] == label})
@@ -788,7 +809,10 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) 
         lines += ["Cells: det / stoch success, mean±SE over seeds; (paper det/stoch) where the paper has the object.",
                   "", comparison_table(results, labels, list(c.objects), c.dampings), "",
                   f"Every seed's success (seeds {', '.join(map(str, c.seeds))}, in that order):", "",
-                  seeds_table(results, labels, list(c.objects), c.seeds, c.dampings), "", f"![Figure 2]({fig.name})"]
+                  seeds_table(results, labels, list(c.objects), c.seeds, c.dampings), "",
+                  "How (det cells; mean over objects and seeds, penetration the deepest; the tracking row is the "
+                  "expert's drag at its own pace):", "", physical_table(results, labels, list(c.objects), c.dampings),
+                  "", f"![Figure 2]({fig.name})"]
         curves = training_curves(table, c, out)
         if curves is not None:
             lines += ["", f"![training curves]({curves.name})"]

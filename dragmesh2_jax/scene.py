@@ -34,10 +34,16 @@ from dragmesh2_jax.errors import DragMeshError
 
 #: Frame sensors (12 values) both backends read: palm centre, handle centre, handle x (long) and y (normal) axes.
 SENSORS = ("palm_pos", "handle_pos", "handle_xaxis", "handle_yaxis")
-#: Contact-load sensors after them (22 values): the wrist force and torque (N, N m; the load the virtual arm
-#: carries, in the wrist frame) and the normal contact force on the palm and on each of the 15 phalanges (N).
+FRAME_SIZE = 3 * len(SENSORS)
+#: The contact sensor after them (2 values): how many contacts the hand has and the signed distance of the deepest
+#: (m, negative where the hand penetrates the object; only hand-object pairs collide, so every contact is one).
+CONTACT_SENSOR = "deepest_contact"
+CONTACT_SLICE = slice(FRAME_SIZE, FRAME_SIZE + 2)
+#: Contact-load sensors last (22 values): the wrist force and torque (N, N m; the load the virtual arm carries, in
+#: the wrist frame) and the normal contact force on the palm and on each of the 15 phalanges (N).
 FORCE_SENSORS = ("wrist_force", "wrist_torque")
-FORCE_SIZE = 6 + 16  # with the hand; the gripper's is 6 + 3 (palm, two pads). The load sensors come last.
+FORCE_SIZE = 6 + 16  # with the hand; the gripper's is 6 + 3 (palm, two pads)
+FORCE_SLICE = slice(CONTACT_SLICE.stop, None)
 EFFECTORS = ("hand", "parallel_jaw")
 WRIST_SITE = "wrist_ft"
 TARGET_JOINT = "target_joint"
@@ -260,6 +266,7 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     ET.SubElement(sensor, "framepos", name=SENSORS[1], objtype="site", objname=HANDLE_SITE)
     ET.SubElement(sensor, "framexaxis", name=SENSORS[2], objtype="site", objname=HANDLE_SITE)
     ET.SubElement(sensor, "frameyaxis", name=SENSORS[3], objtype="site", objname=HANDLE_SITE)
+    ET.SubElement(sensor, "contact", name=CONTACT_SENSOR, data="found dist", reduce="mindist", num="1")
     ET.SubElement(sensor, "force", name=FORCE_SENSORS[0], site=WRIST_SITE)
     ET.SubElement(sensor, "torque", name=FORCE_SENSORS[1], site=WRIST_SITE)
     for name in eff["touch"]:

@@ -9,6 +9,7 @@ evaluation steps replaced by stand-ins that leave what the real ones leave; ``te
 real table. ``view`` opens MuJoCo's viewer on a virtual screen, as its own process."""
 
 import glob
+import json
 import os
 import re
 import shlex
@@ -42,7 +43,6 @@ BUDGETS = [
     ("dragmesh2 train --method pica --object ../shared/gapartnet/45261 --out runs/pica_45261", TRAIN),
     ("dragmesh2 train --out runs/pica_45261 --resume", ["--epochs", "3"]),
     ("dragmesh2 train --method recommended ", TRAIN),
-    ("dragmesh2 train --method pica --object ../shared/gapartnet/45261 --out runs/x ", TRAIN),
     ("dragmesh2 train --method pica --object ../shared/gapartnet/45261 --out runs/pica3 ", TRAIN),
     ("dragmesh2 train --method pica --objects ", TRAIN),
     ("dragmesh2 train --method pica --dataset ", TRAIN),
@@ -90,7 +90,7 @@ def test_every_command_of_the_block_has_its_budget_in_order():
         assert command.startswith(start), (command, start)
 
 
-def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, display):
+def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, display):
     require_shared(SHARED / "gapartnet")
     work = tmp_path / "repo"
     work.mkdir()
@@ -100,7 +100,8 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, display):
     monkeypatch.setattr(reproduce_lib, "_train", fake.train)
     monkeypatch.setattr(reproduce_lib, "_evaluate", fake.evaluate)
     env = {**{k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}, "DISPLAY": display}
-    for command, (_, budget) in zip(readme_commands(), BUDGETS, strict=True):
+    printed = {}  # each command's (stdout, stderr), by its start in BUDGETS
+    for command, (start, budget) in zip(readme_commands(), BUDGETS, strict=True):
         argv = argv_of(command) + budget
         if argv[0] == "view":  # MuJoCo's viewer in its own process, on the virtual screen
             done = subprocess.run([str(Path(sys.executable).parent / "dragmesh2"), *argv], capture_output=True,
@@ -109,12 +110,27 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, display):
             assert "view: 3 control steps shown" in done.stderr
             continue
         assert dragmesh2(argv) == 0, command
-    # what the commands leave is what the README says they leave
-    assert Path("t.json").is_file() and Path("grasp.png").is_file() and Path("envelope.png").is_file()
-    assert Path("dataset/manifest.csv").is_file() and Path("curves.json").is_file()
-    for run in ("pica_45261", "hold", "x", "pica3/seed_2", "mix", "ds", "mix_45780", "pica_45261_aram"):
+        printed[start] = capsys.readouterr()
+    # what the commands print and leave is what the README says they do
+    inspect = printed["dragmesh2 inspect "].out
+    assert "StorageFurniture" in inspect and "prismatic" in inspect and "picture       grasp.png" in inspect
+    assert Path("grasp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and Path("envelope.png").is_file()
+    assert Path("t.json").is_file() and Path("dataset/manifest.csv").is_file() and Path("curves.json").is_file()
+    for run in ("pica_45261", "hold", "pica3/seed_2", "mix", "ds", "mix_45780", "pica_45261_aram"):
         assert Path("runs", run, "checkpoints", "final", "learner").is_dir(), run
+    # a log gets one plain progress line per epoch, with the time taken and left
+    lines = [ln for ln in printed[BUDGETS[10][0]].err.splitlines() if ln.startswith("train pica: epoch")]
+    assert [ln.split()[3] for ln in lines] == ["1/2", "2/2"]
+    assert all(re.search(r"elapsed \d+ s  left ~\d+ s$", ln) for ln in lines)
     assert '"epochs": 3' in Path("runs/pica_45261/run.json").read_text()  # the resume extended the record
+    record = json.loads(Path("runs/pica3/seed_1/run.json").read_text())  # every flag reaches the record
+    assert record["task"]["alpha"] == 0.03 and record["scene"]["damping"] == 25.0 and record["ppo"]["seed"] == 1
+    assert record["network"]["state_sizes"] == [64, 64] and record["ppo"]["num_envs"] == 2
+    # zero-shot on an unseen folder: its own evaluation file; the fine-tune onto it is a run of that object alone
+    (zero_shot,) = Path("runs/mix/evaluations").glob("*__on-45780.json")
+    assert json.loads(zero_shot.read_text())["zero_shot"]
+    tuned = json.loads(Path("runs/mix_45780/run.json").read_text())
+    assert tuned["object"].endswith("45780") and tuned["objects"] == [] and tuned["finetune"] == "continued"
     assert list(Path("runs/pica_45261/evaluations").glob("*.json")) and list(Path(".").glob("pica.*"))
     for table in ("rep/main.md", "rep/ablation.md", "rep2/main.md", "rep4/main.md", "gen/generalist.md",
                   "scal/scaling.md", "tiny/damping-range.md"):

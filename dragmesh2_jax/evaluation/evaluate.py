@@ -72,7 +72,7 @@ def envelope(task: PullTask, paces=ENVELOPE_PACES, dampings=ENVELOPE_DAMPINGS) -
     task's start, within the task's episode length. Per cell: whether it opened, the episode's steps, final
     progress, detachment and the peak wrist load (N). A cell the expert opens at some pace is reachable through
     contact; one it opens at no pace may still be for a closed-loop policy (the part can lag behind a
-    time-indexed path)."""
+    time-indexed path). With the part's peak speed (joint units per second)."""
     rows = []
     for pace in paces:
         c = tracking_controller(task, pace)
@@ -83,7 +83,8 @@ def envelope(task: PullTask, paces=ENVELOPE_PACES, dampings=ENVELOPE_DAMPINGS) -
             rows.append({"pace": float(pace), "damping": float(d), "opened": bool(r["acc"]["success"][i] > 0),
                          "steps": int(live.sum()), "progress": float(r["acc"]["progress"][i]),
                          "detached": bool(r["acc"]["detach"][i] > 0),
-                         "wrist_load_peak_n": float(r["wrist_load"][live, i].max(initial=0.0))})
+                         "wrist_load_peak_n": float(r["wrist_load"][live, i].max(initial=0.0)),
+                         "part_speed_peak": float(r["acc"]["part_speed_peak"][i])})
     return rows
 
 
@@ -132,15 +133,27 @@ def envelope_figure(rows: list[dict], path: str | Path, title: str = "") -> Path
     return atomic_write_bytes(path, buf.getvalue())
 
 
+#: The physical figures of a cell (``rollout.cells``) as table columns: key, header, format.
+PHYSICAL = (
+    ("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"),
+    ("palm_speed_peak_m_s", "palm speed p95 [m/s]", "{:.2f}"),
+    ("part_speed_peak", "part speed p95 [/s]", "{:.2f}"),
+    ("penetration_max_mm", "penetration max [mm]", "{:.1f}"),
+    ("action_smoothness", "mean abs action change", "{:.3f}"),
+)
+
+
 def markdown_table(result: dict) -> str:
+    """The cells (success with its interval, how far and how long, saturation, and the physical figures: the wrist
+    load, the palm's and the part's pace, penetration and smoothness) and the robustness per mode."""
     lines = ["| damping | mode | success [95% CI] | progress | return | steps | clip099 | clip099 active | detach | "
-             "action L2 |", "|---|---|---|---|---|---|---|---|---|---|"]
+             "action L2 | " + " | ".join(h for _, h, _ in PHYSICAL) + " |", "|---" * (10 + len(PHYSICAL)) + "|"]
     for r in result["cells"]:
         lo, hi = r["success_ci95"]
         lines.append(f"| x{r['damping']:g} | {r['mode']} | {r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}] | "
                      f"{r['progress_mean']:.2f} | {r['return_mean']:.1f} | {r['steps_mean']:.1f} | "
                      f"{r['clip099']:.3f} | {r['clip099_active']:.3f} | {r['detach_rate']:.2f} | "
-                     f"{r['action_l2_mean']:.2f} |")
+                     f"{r['action_l2_mean']:.2f} | " + " | ".join(f.format(r[k]) for k, _, f in PHYSICAL) + " |")
     lines += ["", "| mode | mean success | worst success | clip099 active |", "|---|---|---|---|"]
     for m, v in result["robustness"].items():
         lines.append(f"| {m} | {v['mean_success']:.2f} | {v['worst_success']:.2f} | {v['clip099_active']:.3f} |")

@@ -28,7 +28,8 @@ from dragmesh2_jax.policies.controller import Policy
 from dragmesh2_jax.task.env import PullTask, TaskData
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
-ACCUMULATED = ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret", "overflow")
+ACCUMULATED = ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret", "overflow", "load_peak",
+               "palm_speed_peak", "part_speed_peak", "penetration_max", "change")
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,41 +66,55 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
     state = reset(jax.random.split(k_env, n), jnp.asarray(r.scales, jnp.float32), jnp.arange(n) % r.episodes)
     acc0 = {k: jnp.zeros(n) for k in ACCUMULATED}
 
-    def body(state, live, acc, key):
+    def body(state, live, acc, key, prev):
         key, k = jax.random.split(key)
         u = r.policy(params, state.obs, k)
+        u = u if r.controls == "targets" else jnp.clip(u, -1.0, 1.0)
         before = kinematics(state.physics)
-        state = step(state, u if r.controls == "targets" else jnp.clip(u, -1.0, 1.0))
+        state = step(state, u)
+        after = kinematics(state.physics)
         m = state.metrics
+        # the commanded increment in action units (a target controller's as the action that would ask for it)
+        a = u if r.controls == "actions" else (u - before.hand_q) / task.config.alpha
+        dt = task.config.control_dt
+
+        def peak(name, value):
+            return jnp.where(live, jnp.maximum(acc[name], value), acc[name])
+
         acc = {
             "steps": acc["steps"] + live, "l2": acc["l2"] + live * m["action_l2"],
             "clip": acc["clip"] + live * (m["action_abs_max"] > CLIP_LEVEL),
             "clip_active": acc["clip_active"] + live * (m["active_abs_max"] > CLIP_LEVEL),
             "overflow": acc["overflow"] + live * m["overflow"],
+            "load_peak": peak("load_peak", jnp.linalg.norm(before.force[:, :3], axis=-1)),
+            "palm_speed_peak": peak("palm_speed_peak", jnp.linalg.norm(after.palm - before.palm, axis=-1) / dt),
+            "part_speed_peak": peak("part_speed_peak", jnp.abs(after.obj_q - before.obj_q) / dt),
+            "penetration_max": peak("penetration_max", after.penetration),
+            "change": acc["change"] + live * (acc["steps"] > 0) * jnp.mean(jnp.abs(a - prev), axis=-1),
             **{k: jnp.where(live, m[src], acc[k]) for k, src in (
                 ("success", "success"), ("detach", "detach"), ("progress", "progress"), ("ret", "episode_return"))},
         }
         record = {"q": m["q"], "hand_q": before.hand_q, "obj_q": before.obj_q, "live": live, "force": before.force}
-        return state, live & ~state.done, acc, key, record
+        return state, live & ~state.done, acc, key, a, record
 
-    live0 = jnp.ones(n, bool)
+    live0, prev0 = jnp.ones(n, bool), jnp.zeros_like(kinematics(state.physics).hand_q)  # the effector's DoFs
     if r.steps is None:
         def loop(c):
-            t, state, live, acc, key = c
-            state, live, acc, key, _ = body(state, live, acc, key)
-            return t + 1, state, live, acc, key
+            t, state, live, acc, key, prev = c
+            state, live, acc, key, prev, _ = body(state, live, acc, key, prev)
+            return t + 1, state, live, acc, key, prev
 
         T = task.config.episode_length
-        _, _, _, acc, _ = jax.lax.while_loop(lambda c: (c[0] < T) & c[2].any(), loop,
-                                             (jnp.int32(0), state, live0, acc0, k_act))
+        _, _, _, acc, _, _ = jax.lax.while_loop(lambda c: (c[0] < T) & c[2].any(), loop,
+                                                (jnp.int32(0), state, live0, acc0, k_act, prev0))
         return {"acc": acc}
 
     def scan_body(c, _):
-        state, live, acc, key = c
-        state, live, acc, key, record = body(state, live, acc, key)
-        return (state, live, acc, key), record
+        state, live, acc, key, prev = c
+        state, live, acc, key, prev, record = body(state, live, acc, key, prev)
+        return (state, live, acc, key, prev), record
 
-    (_, _, acc, _), records = jax.lax.scan(scan_body, (state, live0, acc0, k_act), None, length=r.steps)
+    (_, _, acc, _, _), records = jax.lax.scan(scan_body, (state, live0, acc0, k_act, prev0), None, length=r.steps)
     return {"acc": acc, **records}
 
 
@@ -129,10 +144,18 @@ def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float,
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
+#: The percentile over a cell's episodes of each episode's peak, for the peaks a cell reports (robust to one
+#: episode's spike, as ``envelope`` reports one episode's peak).
+PEAK_PERCENTILE = 95
+
+
 def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
-    """Per damping cell: success_rate with its 95% Wilson interval, progress_mean (final progress), return_mean,
-    steps_mean (episode length), clip099 over every action channel and clip099_active over the DoFs that move,
-    detach_rate, action_l2_mean: each over the first episode of every world of the cell."""
+    """Per damping cell, over the first episode of every world of the cell: success_rate with its 95% Wilson
+    interval, progress_mean (final progress), return_mean, steps_mean (episode length), clip099 over every action
+    channel and clip099_active over the DoFs that move, detach_rate, action_l2_mean; and how it was done, physically:
+    wrist_load_peak_n, palm_speed_peak_m_s and part_speed_peak (joint units per second), each the 95th percentile
+    over the episodes of each episode's peak; penetration_max_mm, the deepest hand-object penetration of any episode;
+    action_smoothness, the mean |a_t - a_(t-1)| over channels and steps (action units)."""
     acc = result["acc"]
     records = []
     for i, d in enumerate(dampings):
@@ -149,6 +172,11 @@ def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
             "clip099_active": float(acc["clip_active"][sl].sum() / total),
             "detach_rate": float(np.mean(acc["detach"][sl] > 0)),
             "action_l2_mean": float(acc["l2"][sl].sum() / total),
+            "wrist_load_peak_n": float(np.percentile(acc["load_peak"][sl], PEAK_PERCENTILE)),
+            "palm_speed_peak_m_s": float(np.percentile(acc["palm_speed_peak"][sl], PEAK_PERCENTILE)),
+            "part_speed_peak": float(np.percentile(acc["part_speed_peak"][sl], PEAK_PERCENTILE)),
+            "penetration_max_mm": float(1000.0 * acc["penetration_max"][sl].max()),
+            "action_smoothness": float(acc["change"][sl].sum() / max(float(np.maximum(steps - 1, 0).sum()), 1.0)),
         })
     return records
 

@@ -10,8 +10,9 @@ of every function, so objects of the same model structure share one compiled pro
                         any model fields (:data:`WorldFields`, e.g. ``dof_damping``, ``geom_friction``,
                         ``body_mass``): the Playground ``(model, in_axes)`` pattern, on both engines;
   * ``kinematics(data, ps)``  the few quantities the task reads: hand q/qd (51), target-joint q/qd, palm centre,
-                        handle centre and handle axes (long, normal), world frame, and the contact-load sensors
-                        (wrist force/torque, palm and phalanx normal forces). Positions and sensors are those
+                        handle centre and handle axes (long, normal), world frame, the contact-load sensors
+                        (wrist force/torque, palm and phalanx normal forces) and the deepest hand-object
+                        penetration. Positions and sensors are those
                         MuJoCo computed at the start of the last substep (as ``mj_step`` leaves them);
   * ``overflow(data, ps)``  whether the world needed more contact or constraint room than the engine reserved
                         (``physics/contacts.py``): the task reports it, the trainer and evaluator stop on it;
@@ -43,6 +44,12 @@ class Kinematics:
     handle_pos: jnp.ndarray  # (3,) m
     handle_rot: jnp.ndarray  # (6,) handle long axis and outward normal (unit vectors)
     force: jnp.ndarray  # (FORCE_SIZE,) wrist force (3, N) and torque (3, N m), palm + 15 phalanx touch (16, N)
+    penetration: jnp.ndarray  # () m: how deep the hand is in the object (0 without contact)
+
+
+def penetration(contact: jnp.ndarray) -> jnp.ndarray:
+    """The deepest penetration (m, >= 0) from the contact sensor's (contacts, signed distance of the deepest)."""
+    return jnp.where(contact[0] > 0, jnp.maximum(-contact[1], 0.0), 0.0)
 
 
 #: Per-world values of model fields, by ``MjModel`` field name, each of the field's full shape.

@@ -26,10 +26,10 @@ from flax import struct
 from jax._src import xla_bridge
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields
+from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, penetration
 from dragmesh2_jax.physics.batch import map_batched, shared
 from dragmesh2_jax.physics.contacts import ContactBudget, overflow_message
-from dragmesh2_jax.scene import SENSORS, Scene
+from dragmesh2_jax.scene import CONTACT_SLICE, FORCE_SLICE, Scene
 
 _IMPORT_NOTES = io.StringIO()  # mujoco.mjx prints "Failed to import warp" when warp is absent: shown only for warp
 with contextlib.redirect_stdout(_IMPORT_NOTES):
@@ -37,7 +37,6 @@ with contextlib.redirect_stdout(_IMPORT_NOTES):
     from mujoco.mjx._src.collision_driver import make_condim
 
 
-FORCE_SLICE = slice(3 * len(SENSORS), None)  # the contact-load sensors: the last ones in sensordata
 
 
 #: MuJoCo Warp's overflow bits (``OverflowType``) that mean a buffer was too small: nefc > njmax (1), njmax_nnz (2),
@@ -198,4 +197,5 @@ class MjxBackend:
         return Kinematics(hand_q=ps.qpos[L.hand_qpos], hand_qd=ps.qvel[L.hand_dof],
                           obj_q=ps.qpos[L.target_qpos], obj_qd=ps.qvel[L.target_dof],
                           palm=ps.site_xpos[L.palm_site], handle_pos=ps.site_xpos[L.handle_site],
-                          handle_rot=jnp.concatenate([R[:, 0], R[:, 1]]), force=ps.sensordata[FORCE_SLICE])
+                          handle_rot=jnp.concatenate([R[:, 0], R[:, 1]]), force=ps.sensordata[FORCE_SLICE],
+                          penetration=penetration(ps.sensordata[CONTACT_SLICE]))

@@ -27,15 +27,23 @@ import numpy as np
 from flax import struct
 from mujoco import rollout
 
-from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, stack_states, take_state
-from dragmesh2_jax.scene import SENSORS, Scene
+from dragmesh2_jax.physics.base import (
+    Kinematics,
+    Layout,
+    Start,
+    WorldFields,
+    penetration,
+    stack_states,
+    take_state,
+)
+from dragmesh2_jax.scene import CONTACT_SLICE, FORCE_SLICE, Scene
 
 
 @struct.dataclass
 class CState:
     qpos: jnp.ndarray
     qvel: jnp.ndarray
-    sensors: jnp.ndarray  # palm (3), handle pos (3), handle x axis (3), handle y axis (3), contact load (22)
+    sensors: jnp.ndarray  # palm (3), handle pos (3), handle x, y axes (3 + 3), deepest contact (2), load (22)
 
 
 @struct.dataclass
@@ -159,7 +167,8 @@ class MujocoBackend:
 
     def kinematics(self, data: CData, ps: CState) -> Kinematics:
         L = data.layout
-        s, n = ps.sensors, 3 * len(SENSORS)
+        s = ps.sensors
         return Kinematics(hand_q=ps.qpos[L.hand_qpos], hand_qd=ps.qvel[L.hand_dof],
                           obj_q=ps.qpos[L.target_qpos], obj_qd=ps.qvel[L.target_dof],
-                          palm=s[0:3], handle_pos=s[3:6], handle_rot=s[6:12], force=s[n:])
+                          palm=s[0:3], handle_pos=s[3:6], handle_rot=s[6:12], force=s[FORCE_SLICE],
+                          penetration=penetration(s[CONTACT_SLICE]))

@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
+import sys
 import time
 from dataclasses import dataclass
 
@@ -20,6 +21,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from tensorboardX import SummaryWriter
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.evaluate import PHYSICAL
 from dragmesh2_jax.evaluation.protocol import SELECTION, EvalProtocol
 from dragmesh2_jax.evaluation.rollout import cells, rollout
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
@@ -58,8 +60,8 @@ class Selection:
 
 def selection_check(program: TrainProgram, selection: Selection, heldout=None):
     """``ts -> row``: det success per damping of the selection protocol (its own starts) on the training env, or on
-    ``heldout`` (a run's held-aside objects: each world draws one), one parallel rollout compiled once per program
-    signature."""
+    ``heldout`` (a run's held-aside objects: each world draws one), and the physical figures of its worst damping
+    (the largest over the dampings), one parallel rollout compiled once per program signature."""
     p = selection.protocol
     task, policy, dampings = p.task(heldout or program.task), program.make_policy(True), list(p.dampings)
 
@@ -70,9 +72,22 @@ def selection_check(program: TrainProgram, selection: Selection, heldout=None):
         s = [r["success_rate"] for r in rs]
         return {"epoch": int(ts.epoch), "mean_success": float(np.mean(s)), "worst_success": float(np.min(s)),
                 "clip099_active": float(np.mean([r["clip099_active"] for r in rs])),
-                **{f"success_x{r['damping']:g}": r["success_rate"] for r in rs}}
+                **{f"success_x{r['damping']:g}": r["success_rate"] for r in rs},
+                **{k: float(np.max([r[k] for r in rs])) for k, _, _ in PHYSICAL}}  # the worst damping's
 
     return check
+
+
+def _restore(template: TrainState, path) -> TrainState:
+    """A checkpoint to continue from exactly; one whose worlds an earlier version saved in another layout (its
+    policy loads) continues from its policy with fresh worlds, said on stderr."""
+    try:
+        return load_checkpoint(template, path)
+    except DragMeshError:
+        ts = load_checkpoint(template, path, keep_env=True)  # the policy itself must load, or this is the error
+        print(f"note: {path}: its worlds were saved in another layout (an earlier version): training continues "
+              "from its policy with fresh worlds, not bit-exact", file=sys.stderr)
+        return ts
 
 
 def _resume_epoch(runs: list[RunDir]) -> int | None:
@@ -165,7 +180,7 @@ def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backe
                                 "them (give more epochs to extend the run)")
         program, heldout, _ = programs_of(spec, runs[0].trajectories())
         template = init_jit(program, program.data(), seed_keys(seeds[:1])[0])
-        states = [load_checkpoint(template, r.epoch_checkpoints()[common]) for r in runs]
+        states = [_restore(template, r.epoch_checkpoints()[common]) for r in runs]
         ts = stack_runs(states)
         rows = [r.log_rows(common) for r in runs]
         robust_rows = [r.robust_rows(common) for r in runs]

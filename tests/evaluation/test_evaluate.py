@@ -9,6 +9,7 @@ import pytest
 
 from dragmesh2_jax.assets.hand import active_dofs
 from dragmesh2_jax.assets.procedural import packaged_object
+from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import envelope, envelope_table, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
@@ -110,16 +111,55 @@ def test_evaluate_needs_the_protocols_starts(drawer_task):
     assert [cell["damping"] for cell in res["cells"]] == [1.0, 2.0, 4.0] and res["protocol"]["episodes"] == 2
 
 
-def test_the_envelope_of_a_procedural_door():
-    """The expert opens the packaged door at x1 at its own pace without detaching; each cell reports its length
-    and wrist-load peak, and a slower replay takes more steps."""
-    task = EvalProtocol(starts=None).task(load_task(str(packaged_object("door_cabinet_0000")), None,
+@pytest.fixture(scope="module")
+def door_task():
+    """The packaged procedural door from the expert's exact grasp (C engine)."""
+    return EvalProtocol(starts=None).task(load_task(str(packaged_object("door_cabinet_0000")), None,
                                                     backend="mujoco"))
+
+
+def test_the_envelope_of_a_procedural_door(door_task):
+    """The expert opens the packaged door at x1 at its own pace without detaching; each cell reports its length
+    and wrist-load peak, and a slower replay takes more steps (and moves the part more slowly)."""
+    task = door_task
     rows = envelope(task, paces=(0.5, 1.0), dampings=(1.0, 8.0))
     assert [(r["pace"], r["damping"]) for r in rows] == [(0.5, 1.0), (0.5, 8.0), (1.0, 1.0), (1.0, 8.0)]
     own = rows[2]
     assert own["opened"] and not own["detached"] and 0 < own["steps"] < task.config.episode_length
     assert all(r["wrist_load_peak_n"] > 0 and np.isfinite(r["wrist_load_peak_n"]) for r in rows)
     assert rows[0]["opened"] and rows[0]["steps"] > own["steps"]  # measured: 240 and 122 steps
+    assert 0 < rows[0]["part_speed_peak"] < own["part_speed_peak"]
     table = envelope_table(rows)
     assert table.splitlines()[0] == "| pace | x1 | x8 |" and "| 1x | opens (" in table
+
+
+def test_every_cell_reports_how_the_part_was_opened_and_the_experts_load_is_the_envelopes(door_task):
+    """The physical figures of a cell: the expert's drag at its own pace, one episode from its exact grasp, peaks
+    at the wrist load the envelope reports for that cell (computed by the other loop of the rollout); the palm and
+    the part move at finite, positive speeds; its fingers sink millimetres into the handle; its increments change
+    smoothly."""
+    protocol = EvalProtocol(dampings=(1.0,), modes=("det",), episodes=1, starts=None)
+    (cell,) = evaluate(protocol.task(door_task), tracking_controller(door_task), protocol)["cells"]
+    (own,) = envelope(door_task, paces=(1.0,), dampings=(1.0,))
+    assert cell["wrist_load_peak_n"] == pytest.approx(own["wrist_load_peak_n"], rel=1e-9) and own["opened"]
+    assert cell["part_speed_peak"] == pytest.approx(own["part_speed_peak"], rel=1e-9)
+    assert 0 < cell["palm_speed_peak_m_s"] < 2.0 and 0 < cell["part_speed_peak"] < 10.0  # rad/s
+    # the expert's fingers press into the handle's collision hull (measured: 8.6 mm; 3.9-7.9 on the shared objects)
+    assert 1.0 < cell["penetration_max_mm"] < 20.0 and 0 < cell["action_smoothness"] < 0.1
+    md = markdown_table({"cells": [{**cell, "mode": "det"}], "robustness": {}})
+    assert "wrist load p95 [N]" in md and f"| {cell['wrist_load_peak_n']:.0f} |" in md
+
+
+def test_a_cells_peaks_are_the_95th_percentile_of_its_episodes_and_penetration_the_deepest():
+    n = 20
+    acc = {k: np.zeros(n) for k in ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret",
+                                    "change")}
+    acc["steps"][:] = 10
+    acc["load_peak"] = np.arange(1.0, n + 1)  # 1 .. 20 N
+    acc["palm_speed_peak"], acc["part_speed_peak"] = np.ones(n), np.full(n, 2.0)
+    acc["penetration_max"] = np.r_[np.zeros(n - 1), 0.004]
+    acc["change"][:] = 0.9  # 9 changes per episode
+    (c,) = cells({"acc": acc}, [1.0], n)
+    assert c["wrist_load_peak_n"] == pytest.approx(np.percentile(np.arange(1.0, n + 1), 95)) == pytest.approx(19.05)
+    assert c["palm_speed_peak_m_s"] == 1.0 and c["part_speed_peak"] == 2.0
+    assert c["penetration_max_mm"] == pytest.approx(4.0) and c["action_smoothness"] == pytest.approx(0.1)

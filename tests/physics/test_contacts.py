@@ -84,3 +84,23 @@ def test_an_overflow_stops_training_and_a_benchmark_not_only_an_evaluation(drawe
     ts = init_jit(program, program.data(), jax.random.PRNGKey(0))
     with pytest.raises(DragMeshError, match=r"overflowed in 8 world-steps \(epoch 1\)"):
         train(program, program.data(1), stack_runs([ts]), 1)
+
+
+def test_a_hand_pushed_into_a_fixed_part_penetrates_it_and_a_free_hand_does_not(drawer_task):
+    """The packaged drawer closed (at its joint's lower limit it cannot go further in: a fixed box). The hand at the
+    expert's grasp, its wrist driven 10 cm into the drawer front (the position drives push with up to 300 N),
+    penetrates it by millimetres; the same hand lifted 0.5 m clear of the object touches nothing: 0."""
+    b = drawer_task.backend
+    data, grasp = b.data, b.reset_state(b.data, 0)
+    step = jax.jit(lambda ps, ctrl: b.step(data, ps, ctrl, {}))
+    start = b.kinematics(data, grasp)
+    inward = -start.handle_rot[3:6]  # the handle's outward normal, reversed
+    ps = grasp
+    for _ in range(15):
+        ps = step(ps, start.hand_q.at[:3].add(0.10 * inward))
+    pushed = b.kinematics(data, ps)
+    assert 0.1 < 1000 * float(pushed.penetration) < 50  # mm
+    assert float(pushed.obj_q) == pytest.approx(float(start.obj_q), abs=2e-3)  # the part did not give way
+    lifted = grasp.replace(qpos=grasp.qpos.at[data.layout.hand_qpos[2]].add(0.5))
+    free = b.kinematics(data, step(lifted, lifted.qpos[data.layout.hand_qpos]))
+    assert float(free.penetration) == 0.0

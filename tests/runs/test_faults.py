@@ -12,6 +12,8 @@ import pytest
 from tensorboardX.proto import event_pb2
 
 from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.rundir import RunDir
 from tests.conftest import installed_command, read_only
 from tests.test_io import hold_lock, release
@@ -102,10 +104,10 @@ def test_a_run_stopped_before_its_first_checkpoint_restarts_with_the_same_comman
     assert RunDir(tmp_path / "run").trained_epochs() == 2
     # and --resume of such a folder starts it again from its record
     monkeypatch.setattr(RunDir, "write_log", interrupt)
-    assert train(tmp_path / "other", "--seed", "7") == 130
+    assert train(tmp_path / "other", "--seed", "7", "--epochs", "1") == 130
     monkeypatch.undo()
     assert dragmesh2(["train", "--out", str(tmp_path / "other"), "--resume", "--quiet"]) == 0
-    assert RunDir(tmp_path / "other").spec().ppo.seed == 7 and RunDir(tmp_path / "other").trained_epochs() == 2
+    assert RunDir(tmp_path / "other").spec().ppo.seed == 7 and RunDir(tmp_path / "other").trained_epochs() == 1
 
 
 def test_wandb_missing_is_refused_before_anything_is_written(tmp_path, monkeypatch, capsys):
@@ -195,3 +197,18 @@ def test_a_run_folder_on_read_only_storage_is_one_line(run, capsys):
     with read_only(run):
         assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3"]) == 2
     one_error(capsys, "cannot be written (")
+
+
+def test_a_run_whose_worlds_an_earlier_version_saved_continues_from_its_policy(run, monkeypatch, capsys):
+    """Worlds saved in another state layout (an earlier version's sensors) cannot continue exactly: the run goes on
+    from its policy with fresh worlds and says so, instead of stopping at a run it could continue."""
+    real = session.load_checkpoint
+
+    def earlier(template, path, keep_env=False):
+        if not keep_env:
+            raise DragMeshError(f"{path}: checkpoint does not match this method/config or is damaged (env)")
+        return real(template, path, keep_env=True)
+    monkeypatch.setattr(session, "load_checkpoint", earlier)
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet"]) == 0
+    assert "its worlds were saved in another layout" in capsys.readouterr().err
+    assert RunDir(run).trained_epochs() == 3

@@ -1,6 +1,7 @@
 """One policy over several objects (``train --objects``): the run record names each object with its content hash and
-keeps each trajectory, checkpoints are chosen on the held-aside objects, a run resumes exactly, and the policy is
-evaluated zero-shot on, or fine-tuned onto, an object folder it never saw."""
+keeps each trajectory, checkpoints are chosen on the held-aside objects and a run resumes exactly. The policy
+evaluated zero-shot on, and fine-tuned onto, an object folder it never saw: the README's commands
+(tests/test_readme.py)."""
 
 import dataclasses
 import json
@@ -9,9 +10,9 @@ import jax
 import numpy as np
 import pytest
 
-from dragmesh2_jax.assets.procedural import packaged_object, synthesize
-from dragmesh2_jax.evaluation.protocol import PAPER, SELECTION
-from dragmesh2_jax.runs.commands import evaluate_checkpoint, finetune_run, load_run
+from dragmesh2_jax.assets.procedural import packaged_object
+from dragmesh2_jax.evaluation.protocol import SELECTION
+from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.runs.spec import method_spec, object_hash
@@ -59,17 +60,3 @@ def test_a_run_over_several_objects_resumes_exactly(mixed_run, tmp_path):
     for x, y in zip(jax.tree.leaves(full.params), jax.tree.leaves(jax.tree.map(lambda v: v[0], resumed.params)),
                     strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
-
-
-def test_zero_shot_and_fine_tuned_on_an_unseen_object(mixed_run, tmp_path):
-    run, _, _ = mixed_run
-    (unseen,) = synthesize("door_cabinet", 1, 5, tmp_path / "objs")
-    protocol = dataclasses.replace(PAPER, dampings=(1.0,), episodes=2, modes=("det",))
-    result, path = evaluate_checkpoint(str(run.path), protocol, object_dir=str(unseen))
-    assert result["zero_shot"] and result["object_id"] == unseen.name and path.name.endswith(f"on-{unseen.name}.json")
-    assert run.evaluation(run.policy_checkpoint(), protocol) is None  # the run's own evaluation is another file
-    parent, rows = finetune_run(str(run.path), "continued", str(tmp_path / "ft"), epochs=1, object_dir=str(unseen),
-                                selection=Selection(every=0), progress=False)
-    ft = RunDir(tmp_path / "ft").spec()
-    assert ft.object == str(unseen) and ft.objects == () and ft.parent == str(parent.resolve())
-    assert [r["epoch"] for r in rows] == [3]
