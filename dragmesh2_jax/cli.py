@@ -34,7 +34,7 @@ from dragmesh2_jax.evaluation.evaluate import (
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, os_error_line
 from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
-from dragmesh2_jax.policies.methods import METHODS
+from dragmesh2_jax.policies.methods import METHODS, RECIPE_DAMPINGS, RECOMMENDED
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.finetune import FINETUNES
@@ -58,6 +58,7 @@ from dragmesh2_jax.runs.commands import (
     make_trajectory,
     object_envelope,
     parse_floats,
+    run_dampings,
     train_run,
     video_of_run,
     view_run,
@@ -334,9 +335,16 @@ def cmd_finetune(args) -> int:
 
 
 def _protocol(args) -> EvalProtocol:
-    return dataclasses.replace(PAPER, dampings=tuple(_dampings(args.damping)), modes=tuple(_modes(args.mode)),
+    return dataclasses.replace(PAPER, dampings=_cells(args.damping, args.checkpoint), modes=tuple(_modes(args.mode)),
                                episodes=args.episodes, seed=args.seed,
                                starts=None if args.exact_reset else PAPER.starts)
+
+
+def _cells(damping: str | None, checkpoint: str | None) -> tuple[float, ...]:
+    """``--damping``, else a run's method's cells (the recipe's x1-x16), else the paper's x1/x2/x4."""
+    if damping is not None:
+        return tuple(_dampings(damping))
+    return run_dampings(checkpoint) if checkpoint else PAPER.dampings
 
 
 def _engine(backend: str) -> str | None:
@@ -376,7 +384,8 @@ def cmd_reproduce(args) -> int:
     config = ReproduceConfig(objects=tuple(args.objects or [str(procedural.default_object())]), seeds=tuple(seeds),
                              epochs=args.epochs, num_envs=args.num_envs, episodes=args.episodes, backend=args.backend,
                              methods=tuple(args.methods.split(",")) if args.methods else None,
-                             dampings=tuple(_dampings(args.damping)), train_objects=args.train_objects,
+                             dampings=None if args.damping is None else tuple(_dampings(args.damping)),
+                             train_objects=args.train_objects,
                              dataset=args.dataset, holdout=args.holdout, video_every=args.video_every,
                              scaling=tuple(int(n) for n in parse_floats(args.scaling, "--scaling", minimum=1)),
                              modes=tuple(_modes(args.mode)), checkpoint=args.checkpoint)
@@ -387,7 +396,7 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    """The main job on the built-in default: trajectory -> PICA training -> evaluation x1/x2/x4 -> report."""
+    """The main job on the built-in default: trajectory -> the recipe's training -> evaluation x1/x2/x4 -> report."""
     report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed, args.renderer,
                       args.video_every, args.method, progress=not args.quiet)
     print(report.read_text())
@@ -396,7 +405,7 @@ def cmd_demo(args) -> int:
 
 
 def cmd_video(args) -> int:
-    dampings = _dampings(args.damping)
+    dampings = _cells(args.damping, args.checkpoint)
     path, used, ck = video_of_run(args.checkpoint, dampings, args.out, args.every, _engine(args.backend), args.impl,
                                   args.renderer)
     print(f"{path}: det policy of {ck} at damping {', '.join(f'x{d:g}' for d in dampings)} ({used} renderer)")
@@ -633,7 +642,8 @@ def build_parser() -> argparse.ArgumentParser:
                                       "gripper primitive)")
     pev.add_argument("--object", help="object folder (with --method; with --checkpoint: the policy zero-shot on it)")
     pev.add_argument("--trajectory", help="trajectory file of --object (default: generate one)")
-    pev.add_argument("--damping", default=_csv(PAPER.dampings), help="damping multipliers, comma-separated (> 0)")
+    pev.add_argument("--damping", help="damping multipliers, comma-separated (> 0; default: a run's method's "
+                                       f"cells, the recipe's {_csv(RECIPE_DAMPINGS)}; else {_csv(PAPER.dampings)})")
     pev.add_argument("--mode", default=",".join(PAPER.modes), help="det (the mean action) and/or stoch (sampled)")
     pev.add_argument("--episodes", type=POSITIVE, default=PAPER.episodes, help="episodes per cell")
     pev.add_argument("--seed", type=int, default=PAPER.seed, help="seed of the starts and the stochastic actions")
@@ -667,8 +677,8 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--num-envs", type=POSITIVE, help=f"default: {PPOConfig.num_envs}")
     prp.add_argument("--episodes", type=POSITIVE, help="episodes per cell (default: the paper's 20 in its tables, "
                      "100 in the project's generalist and scaling tables)")
-    prp.add_argument("--damping", default=_csv(PAPER.dampings), help="evaluation damping multipliers (the paper's "
-                                                                    "by default; 8 adds an OOD column)")
+    prp.add_argument("--damping", help="evaluation damping multipliers (default: the rows' methods' own, the "
+                                       f"recipe's {_csv(RECIPE_DAMPINGS)}; else the paper's {_csv(PAPER.dampings)})")
     prp.add_argument("--train-objects", type=POSITIVE, default=GENERALIST_OBJECTS,
                      help="generalist: procedural training objects in the paper's Table 1 mix (built into --out)")
     prp.add_argument("--dataset", help="generalist: train on this dataset folder (dataset build) instead")
@@ -677,9 +687,10 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--scaling", default=_csv(SCALING_OBJECTS),
                      help="scaling: training-set sizes (nested procedural objects in the Table 1 mix)")
     prp.add_argument("--mode", default=",".join(PAPER.modes), help="evaluation modes of trained runs (det, stoch)")
-    prp.add_argument("--checkpoint", default="best_robust", choices=CHECKPOINTS,
+    prp.add_argument("--checkpoint", choices=CHECKPOINTS,
                      help="main/ablation: evaluate each run's best_robust checkpoint (the paper's selection) or its "
-                          "final one (rows then read METHOD@EPOCHS)")
+                          "final one (rows then read METHOD@EPOCHS) (default: each method's own rule: best_robust "
+                          "for the paper's, final for the recipe)")
     prp.add_argument("--video-every", type=NONNEGATIVE, default=VIDEO_EVERY,
                      help="control steps between video frames of each method's video (0: no videos)")
     prp.add_argument("--out", default="out/reproduce", help="the reproduction's folder (resumable)")
@@ -691,22 +702,24 @@ def build_parser() -> argparse.ArgumentParser:
                           "is never replaced by one with fewer cells)")
     prp.set_defaults(func=cmd_reproduce)
 
-    pd = sub.add_parser("demo", help="the main job: trajectory, PICA training, evaluation, report")
+    pd = sub.add_parser("demo", help="the main job: trajectory, training the recipe, evaluation, report")
     pd.add_argument("--object", help="object folder (default: the packaged drawer cabinet)")
     pd.add_argument("--trajectory")
     pd.add_argument("--out", default="out/demo", help="the demo's run folder (a rerun resumes it)")
-    pd.add_argument("--epochs", type=POSITIVE, help="default: 60 on a CPU, 150 on a GPU")
+    pd.add_argument("--epochs", type=POSITIVE, help="default: 60 on a CPU, the method's budget on a GPU")
     pd.add_argument("--seed", type=int, default=0, help="training seed")
     pd.add_argument("--quiet", action="store_true")
     pd.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
     pd.add_argument("--video-every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between video frames")
-    pd.add_argument("--method", default="pica", help="the method the demo trains (recommended: the project's recipe)")
+    pd.add_argument("--method", default="recommended", help="the method the demo trains (recommended: the project's "
+                                                            f"recipe, {RECOMMENDED})")
     _add_renderer_arg(pd)
     pd.set_defaults(func=cmd_demo)
 
     pv = sub.add_parser("video", help="a trained policy's rollouts at several dampings, side by side")
     pv.add_argument("--checkpoint", required=True, help="run folder (best_robust, else final) or checkpoint file")
-    pv.add_argument("--damping", default=_csv(PAPER.dampings), help="damping multipliers, side by side")
+    pv.add_argument("--damping", help="damping multipliers, side by side (default: the run's method's cells, "
+                                      f"the recipe's {_csv(RECIPE_DAMPINGS)}; else {_csv(PAPER.dampings)})")
     pv.add_argument("--out", default="policy.mp4", help=".mp4 (where mediapy and ffmpeg exist, else GIF) or .gif")
     pv.add_argument("--every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between frames (played in real "
                                                                     "time: 2 is 30 frames a second)")

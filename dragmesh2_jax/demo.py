@@ -1,6 +1,7 @@
 """``dragmesh2 demo``, the main job on the built-in default, as a library function: reference trajectory ->
-PICA training -> evaluation at damping x1/x2/x4 (det and stoch, perturbed starts) -> ``report.md`` with the
-success-vs-damping plot, the expert grasp and a video of the policy at each damping."""
+training the project's recipe (or another method) -> evaluation of the checkpoint its method reads at damping
+x1/x2/x4 (det and stoch, perturbed starts) -> ``report.md`` with the success-vs-damping plot, the expert grasp and
+a video of the policy at each damping."""
 
 from __future__ import annotations
 
@@ -17,6 +18,8 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_bytes, atomic_write_text
+from dragmesh2_jax.policies.methods import get_method
+from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.progress import LogLines
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video, render_pose
 from dragmesh2_jax.runs.commands import evaluate_loaded, load_run
@@ -24,19 +27,20 @@ from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.runs.spec import method_spec
 
-CPU_EPOCHS, GPU_EPOCHS = 60, 150  # a small preset on a CPU, the paper's budget on an accelerator
+CPU_EPOCHS = 60  # a small preset on a CPU; on an accelerator the method's own budget
 
 
 def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | None = None, epochs: int | None = None,
              backend: str = "auto", seed: int = 0, renderer: str = "auto", video_every: int = VIDEO_EVERY,
-             method: str = "pica", progress: bool = True) -> Path:
-    """Run the demo into ``out``; returns the report's path."""
+             method: str = "recommended", progress: bool = True) -> Path:
+    """Run the demo into ``out`` (by default the project's recipe, read by its checkpoint rule); returns the
+    report's path."""
     gpu = jax.default_backend() != "cpu"
-    epochs = epochs or (GPU_EPOCHS if gpu else CPU_EPOCHS)
+    epochs = epochs or ((get_method(method).epochs or PPOConfig.epochs) if gpu else CPU_EPOCHS)
     out = Path(out)
     folder = str(object_dir or default_object())
     print(f"dragmesh2 demo: trajectory -> {method} ({epochs} epochs x 64 envs x 32 steps) -> evaluation at damping "
-          f"x1/x2/x4; {'GPU: full preset' if gpu else 'CPU: small preset, about 3-5 minutes on 2 cores'}",
+          f"x1/x2/x4; {'GPU: its full budget' if gpu else 'CPU: a small budget, about 3-5 minutes on 2 cores'}",
           file=sys.stderr)
     t0 = time.time()
     stages = LogLines("demo", 4, enabled=progress)

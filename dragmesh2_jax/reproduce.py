@@ -57,7 +57,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import PHYSICAL, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import MODES, PAPER, PAPER_DAMPINGS, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text, folder_lock
-from dragmesh2_jax.policies.methods import METHODS, RECOMMENDED
+from dragmesh2_jax.policies.methods import CHECKPOINT_RULES, METHODS, RECOMMENDED
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
@@ -81,7 +81,7 @@ GENERALIST_OBJECTS = 32  # procedural training objects of the generalist (Table 
 GENERALIST_HOLDOUT = 2  # of them, held aside for its best_robust selection
 GENERALIST_OBJECT_SEED = 1000  # first seed of those procedural objects (the packaged ones use seeds 0 and 213)
 SCALING_OBJECTS = (1, 8, 32, 128, 277)  # training-set sizes of the scaling table (277: the paper's Table 1)
-CHECKPOINTS = ("best_robust", "final")  # what a main or ablation cell may evaluate of each run
+CHECKPOINTS = CHECKPOINT_RULES  # what a main or ablation cell may evaluate of each run
 SCALING_POINTS = 3  # checkpoints of each scaling run evaluated, evenly along its budget
 TABLES = ("main", "ablation", "train-length", "ood", "continued", "damping-range", "generalist", "scaling")
 PROJECT_TABLES = ("generalist", "scaling")  # beyond the paper: evaluated with PROJECT_EPISODES per cell by default
@@ -200,7 +200,8 @@ class ReproduceConfig:
     backend: str = "auto"
     eval_seed: int = 42
     methods: tuple[str, ...] | None = None  # the rows of the main and ablation tables; None: the paper's
-    dampings: tuple[float, ...] = PAPER_DAMPINGS  # the evaluation cells (x8 beyond the paper: an OOD column)
+    # the evaluation cells; None: the rows' methods' own (the recipe's x1-x16), else the paper's x1/x2/x4
+    dampings: tuple[float, ...] | None = None
     video_every: int = VIDEO_EVERY  # a video per method and object (first seed), a frame every this many steps; 0: none
     train_objects: int = GENERALIST_OBJECTS  # generalist: procedural training objects (a dataset built in out)
     dataset: str | None = None  # generalist: a dataset folder (dataset build) to train on instead
@@ -208,14 +209,17 @@ class ReproduceConfig:
     scaling: tuple[int, ...] = SCALING_OBJECTS  # scaling: the training-set sizes
     modes: tuple[str, ...] = MODES  # the evaluation modes of trained runs (controllers are det only)
     # the checkpoint of each run a main or ablation cell evaluates: best_robust (selected during training by the
-    # paper's robustness protocol) or final (the run's last epoch)
-    checkpoint: str = "best_robust"
+    # paper's robustness protocol), final (the run's last epoch), or None: each method's own rule
+    checkpoint: str | None = None
 
     def __post_init__(self):
         if not self.objects:
             raise DragMeshError("reproduce needs at least one object")
         if self.methods is not None:  # "recommended" stands for the recipe (a row is labelled with its name)
             object.__setattr__(self, "methods", tuple(RECOMMENDED if m == "recommended" else m for m in self.methods))
+        if self.dampings is None:
+            own = sorted({d for m in self.methods or () if m in METHODS for d in METHODS[m].dampings or ()})
+            object.__setattr__(self, "dampings", tuple(own) or PAPER_DAMPINGS)
         known = [*baseline_controllers(), *METHODS]
         unknown = [m for m in self.methods or () if m not in known]
         if self.methods is not None and (not self.methods or unknown):
@@ -233,7 +237,7 @@ class ReproduceConfig:
                                 f"and {self.holdout}")
         if not self.scaling or min(self.scaling) < 1 or len(set(self.scaling)) < len(self.scaling):
             raise DragMeshError(f"the scaling table needs distinct training-set sizes >= 1, got {self.scaling}")
-        if self.checkpoint not in CHECKPOINTS:
+        if self.checkpoint is not None and self.checkpoint not in CHECKPOINTS:
             raise DragMeshError(f"checkpoint must be one of {', '.join(CHECKPOINTS)}, got {self.checkpoint!r}")
         if not self.modes or not set(self.modes) <= set(MODES):
             raise DragMeshError(f"evaluation modes must be some of {', '.join(MODES)}, got {self.modes}")
@@ -368,7 +372,7 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
             for m in methods:
                 for s in c.seeds:
                     r = Run(obj, s, c.epochs, method=m)
-                    steps += [r, Eval(obj, r, c.checkpoint, seed=s)]
+                    steps += [r, Eval(obj, r, c.checkpoint or METHODS[m].checkpoint, seed=s)]
         return steps
     if table == "generalist":
         for m in generalist_methods(c):

@@ -11,6 +11,7 @@ from dragmesh2_jax import render
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.cli import CONFIG_CLASSES, build_parser, config_changes
 from dragmesh2_jax.evaluation.protocol import PAPER
+from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.spec import RunSpec, method_spec
@@ -34,11 +35,12 @@ def test_inspect_json_on_a_real_object(gapartnet_dir, capsys):
 
 
 def test_demo_trains_evaluates_and_reports(tmp_path):
-    """The main job end to end, with a 2-epoch preset (the real one is 60 epochs on a CPU)."""
+    """The main job end to end: the project's recipe with a 2-epoch preset (the real one is 60 epochs on a CPU)."""
     assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet", "--video-every", "100"]) == 0
     run = RunDir(tmp_path)
-    res = run.evaluation(run.checkpoint("best_robust"), PAPER)  # the checkpoint selected by robustness
-    assert res["checkpoint"].endswith("best_robust") and res["protocol"]["starts"]["bank"] >= 1  # perturbed starts
+    res = run.evaluation(run.checkpoint("final"), PAPER)  # the recipe's runs are read at their final checkpoint
+    assert run.spec().method == RECOMMENDED and run.policy_checkpoint().name == "final"
+    assert res["checkpoint"].endswith("final") and res["protocol"]["starts"]["bank"] >= 1  # perturbed starts
     assert sorted((c["damping"], c["mode"]) for c in res["cells"]) == sorted(
         (d, m) for d in (1.0, 2.0, 4.0) for m in ("det", "stoch"))
     assert all(c["episodes"] == 20 and len(c["success_ci95"]) == 2 for c in res["cells"])

@@ -62,9 +62,9 @@ def track(task: PullTask, dampings: list[float], episodes: int = 1, seed: int = 
 
 
 #: The expert's paces an envelope replays (1: the trajectory's own; 0.5: twice as slow) and its dampings (x8: the
-#: out-of-distribution column beyond the paper's 1/2/4).
+#: recipe's training range's end; x16 beyond it).
 ENVELOPE_PACES = (0.33, 0.5, 1.0, 2.0, 4.0)
-ENVELOPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0)
+ENVELOPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
 
 
 def envelope(task: PullTask, paces=ENVELOPE_PACES, dampings=ENVELOPE_DAMPINGS) -> list[dict]:

@@ -151,6 +151,12 @@ def dataset_objects(folder: str | Path) -> tuple[list[str], list[str]]:
     return [o for o, _ in passed], [t for _, t in passed]
 
 
+def run_dampings(checkpoint: str | Path) -> tuple[float, ...]:
+    """The damping cells a run is evaluated at by default: its method's (the recipe's x1-x16), else the paper's."""
+    run, _ = RunDir.of_checkpoint(checkpoint)
+    return run.spec().preset.dampings or PAPER.dampings
+
+
 def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "jax", keep_env: bool = True,
              object_dir: str | None = None, trajectory: str | None = None
              ) -> tuple[TrainProgram, TrainState, RunDir, Path]:

@@ -156,11 +156,14 @@ class RunDir:
         return out
 
     def policy_checkpoint(self) -> Path:
-        """The checkpoint that stands for the run's policy: ``best_robust``, else ``final``."""
-        for name in CHECKPOINT_PREFERENCE:
+        """The checkpoint that stands for the run's policy, by its method's rule (``spec.checkpoint``):
+        ``best_robust`` (else ``final``, for a run that had no robustness check), or ``final``."""
+        rule = self.spec().checkpoint
+        for name in (CHECKPOINT_PREFERENCE if rule == "best_robust" else (rule,)):
             if self.has_checkpoint(name):
                 return self.checkpoint(name)
-        raise DragMeshError(f"{self.path}: no checkpoints/{{{','.join(CHECKPOINT_PREFERENCE)}}}")
+        raise DragMeshError(f"{self.path}: no checkpoints/{rule} yet (its method reads its runs by their {rule} "
+                            "checkpoint; name another: --checkpoint RUN/checkpoints/NAME)")
 
     def trained_epochs(self) -> int:
         """Epochs the run has finished (its log), 0 when it has no final checkpoint yet."""

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import hash_files
-from dragmesh2_jax.policies.methods import Method, get_method, resolve, task_overrides
+from dragmesh2_jax.policies.methods import CHECKPOINT_RULES, Method, get_method, resolve, task_overrides
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.finetune import get_finetune
@@ -45,8 +45,11 @@ class RunSpec:
     holdout: int = 0  # the last ``holdout`` of ``objects`` are held aside: best_robust is chosen on them
     save_every: int = SAVE_EVERY  # epochs between checkpoints (and the last epoch)
     robust_every: int = ROBUST_EVERY  # epochs between robustness checks (and the last epoch); 0: none
+    checkpoint: str = "best_robust"  # the checkpoint that stands for the run (its method's rule, CHECKPOINT_RULES)
 
     def __post_init__(self):
+        if self.checkpoint not in CHECKPOINT_RULES:
+            raise DragMeshError(f"checkpoint must be one of {', '.join(CHECKPOINT_RULES)}, got {self.checkpoint!r}")
         if self.save_every < 1 or self.robust_every < 0:
             raise DragMeshError(f"save_every must be >= 1 and robust_every >= 0, got {self.save_every} and "
                                 f"{self.robust_every}")
@@ -109,7 +112,8 @@ class RunSpec:
         return {"format": RECORD_FORMAT, "method": self.method, "object": str(Path(self.object).resolve()),
                 "objects": objects, "holdout": self.holdout,
                 "finetune": self.finetune, "parent": self.parent, "backend": backend, "buffers": buffers,
-                "schedule": {"save_every": self.save_every, "robust_every": self.robust_every},
+                "schedule": {"save_every": self.save_every, "robust_every": self.robust_every,
+                             "checkpoint": self.checkpoint},
                 "ppo": config_to_dict(self.ppo), "task": config_to_dict(self.task),
                 "scene": config_to_dict(self.scene), "network": config_to_dict(self.network), "versions": versions()}
 
@@ -146,6 +150,8 @@ class RunSpec:
                 schedule.get(k, 0), bool) for k in ("save_every", "robust_every")):
             raise DragMeshError(f"{where}: schedule must hold whole numbers save_every and robust_every, got "
                                 f"{schedule!r}")
+        if schedule.get("checkpoint", "best_robust") not in CHECKPOINT_RULES:
+            raise DragMeshError(f"{where}: schedule.checkpoint must be one of {', '.join(CHECKPOINT_RULES)}")
         return cls(method=record["method"], object=record["object"], objects=tuple(o["folder"] for o in objects),
                    holdout=holdout, ppo=config_from_dict(PPOConfig, record["ppo"], where),
                    task=config_from_dict(TaskConfig, record["task"], where),
@@ -153,7 +159,8 @@ class RunSpec:
                    network=config_from_dict(NetworkConfig, record.get("network", {}), where),
                    finetune=record.get("finetune"), parent=record.get("parent"),
                    save_every=schedule.get("save_every", SAVE_EVERY),
-                   robust_every=schedule.get("robust_every", ROBUST_EVERY))
+                   robust_every=schedule.get("robust_every", ROBUST_EVERY),
+                   checkpoint=schedule.get("checkpoint", "best_robust"))
 
 
 def method_spec(method: str, object_dir: str | list[str], ppo: dict | None = None, task: dict | None = None,
@@ -173,8 +180,10 @@ def method_spec(method: str, object_dir: str | list[str], ppo: dict | None = Non
     m = get_method(method)
     method = m.name  # "recommended" recorded as the recipe it stands for
     task_config = TaskConfig(backend=backend, impl=impl, **{**task_overrides(m), **(task or {})})
+    budget = {} if m.epochs is None else {"epochs": m.epochs}  # the method's own budget unless one is given
     return RunSpec(method=method, object=str(object_dir), objects=tuple(objects), holdout=holdout,
-                   ppo=PPOConfig(**{k: v for k, v in (ppo or {}).items() if v is not None}),
+                   checkpoint=m.checkpoint,
+                   ppo=PPOConfig(**{**budget, **{k: v for k, v in (ppo or {}).items() if v is not None}}),
                    task=task_config, scene=dataclasses.replace(SceneConfig(), **(scene or {})),
                    network=dataclasses.replace(m.network, **(network or {})))
 

@@ -13,8 +13,10 @@ from tensorboardX.proto import event_pb2
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.policies.methods import RECIPE_DAMPINGS, RECIPE_EPOCHS
 from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.spec import method_spec
 from tests.conftest import installed_command, read_only
 from tests.test_io import hold_lock, release
 
@@ -212,3 +214,21 @@ def test_a_run_whose_worlds_an_earlier_version_saved_continues_from_its_policy(r
     assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet"]) == 0
     assert "its worlds were saved in another layout" in capsys.readouterr().err
     assert RunDir(run).trained_epochs() == 3
+
+
+def test_the_recipe_trains_at_its_budget_and_is_read_by_its_rule_with_no_flags(tmp_path, capsys):
+    """``train --method recommended`` records the recipe's schedule (its budget, twice the paper's, and its
+    checkpoint rule: the final one); ``evaluate --checkpoint RUN`` with no flags then reads that checkpoint over the
+    recipe's cells, x1-x8 and x16 beyond its training range. (A tiny budget here: --epochs 1.)"""
+    spec = method_spec("recommended", str(default_object()))
+    assert (spec.ppo.epochs, spec.checkpoint) == (RECIPE_EPOCHS, "final") and method_spec(
+        "pica", str(default_object())).checkpoint == "best_robust"
+    run = tmp_path / "recipe"
+    assert dragmesh2(["train", "--method", "recommended", "--object", str(default_object()), "--out", str(run),
+                      *TINY, "--epochs", "1", "--robust-every", "1"]) == 0
+    assert RunDir(run).spec().checkpoint == "final" and RunDir(run).has_checkpoint("best_robust")  # not the one read
+    capsys.readouterr()
+    assert dragmesh2(["evaluate", "--checkpoint", str(run), "--episodes", "1", "--mode", "det", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["checkpoint"].endswith("checkpoints/final")
+    assert [c["damping"] for c in result["cells"]] == list(RECIPE_DAMPINGS) == [1.0, 2.0, 4.0, 8.0, 16.0]
