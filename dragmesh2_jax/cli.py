@@ -592,8 +592,9 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--objects", nargs="+", metavar="FOLDER", help="several object folders: one policy over all of "
                                                                     "them (each world draws one at every reset)")
     ptr.add_argument("--dataset", help="a folder written by dataset build: its objects whose trajectory passed")
-    ptr.add_argument("--holdout", type=NONNEGATIVE, default=0,
-                     help="of several objects, the last this many are held aside: best_robust is chosen on them")
+    ptr.add_argument("--holdout", type=NONNEGATIVE,
+                     help="of several objects, the last this many are held aside: best_robust is chosen on them "
+                          "(default: 0)")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
     ptr.add_argument("--out", required=True, help="run folder")
     ptr.add_argument("--epochs", type=POSITIVE, help=f"default: {PPOConfig.epochs}, the paper's (a resumed run: "
@@ -619,7 +620,8 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.set_defaults(func=cmd_train)
 
     pft = sub.add_parser("finetune", help="continue a trained run with a diagnostic preset (ARAM, Reconfig, ...)")
-    pft.add_argument("--checkpoint", required=True, help="a run's checkpoint, or the run folder (best_robust)")
+    pft.add_argument("--checkpoint", required=True,
+                     help="a run's checkpoint, or the run folder (the checkpoint its method reads)")
     pft.add_argument("--recipe", required=True, help=" | ".join(FINETUNES))
     pft.add_argument("--out", required=True, help="run folder of the fine-tune")
     pft.add_argument("--epochs", type=POSITIVE, help="epochs to add (default: the preset's, 50)")
@@ -635,7 +637,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     pev = sub.add_parser("evaluate", help="evaluate a trained run or a controller: damping x mode cells, robustness")
     pev.add_argument("--checkpoint",
-                     help="a run folder (its best_robust checkpoint, else final) or one of its checkpoints/*")
+                     help="a run folder (the checkpoint its method reads: best_robust, else final, for the "
+                          "paper's methods; final for the recipe) or one of its checkpoints/*")
     pev.add_argument("--method", help="a controller that needs no training, instead of --checkpoint: tracking "
                                       "(the expert drag replayed as PD targets) | tracking_delta (the same drag "
                                       "through the policies' action increments) | parallel_jaw (the GT-part-pose "
@@ -717,7 +720,8 @@ def build_parser() -> argparse.ArgumentParser:
     pd.set_defaults(func=cmd_demo)
 
     pv = sub.add_parser("video", help="a trained policy's rollouts at several dampings, side by side")
-    pv.add_argument("--checkpoint", required=True, help="run folder (best_robust, else final) or checkpoint file")
+    pv.add_argument("--checkpoint", required=True,
+                    help="run folder (the checkpoint its method reads) or checkpoint file")
     pv.add_argument("--damping", help="damping multipliers, side by side (default: the run's method's cells, "
                                       f"the recipe's {_csv(RECIPE_DAMPINGS)}; else {_csv(PAPER.dampings)})")
     pv.add_argument("--out", default="policy.mp4", help=".mp4 (where mediapy and ffmpeg exist, else GIF) or .gif")
@@ -729,7 +733,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     pw = sub.add_parser("view", help="MuJoCo's interactive viewer: a trained policy, or the expert drag, in real time "
                                      "(keys 1/2/4/8: damping; N: next episode)")
-    pw.add_argument("--checkpoint", help="run folder (best_robust, else final) or checkpoint")
+    pw.add_argument("--checkpoint", help="run folder (the checkpoint its method reads) or checkpoint")
     pw.add_argument("--object", help="object folder (with --checkpoint: the policy on another object)")
     pw.add_argument("--trajectory")
     pw.add_argument("--damping", type=_damping, default=1.0, help="the damping multiplier it starts at (> 0)")

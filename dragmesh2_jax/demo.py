@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.evaluation.evaluate import markdown_table
+from dragmesh2_jax.evaluation.evaluate import PHYSICAL, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_bytes, atomic_write_text
 from dragmesh2_jax.policies.methods import get_method
@@ -53,10 +53,11 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
         _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=None, epochs=epochs,
                                         save_every=max(epochs // 3, 1), progress=progress)
         stages(1, f"1/4 trained ({epochs} epochs)")
-        program, ts, run, ck = load_run(out)  # the checkpoint selected by robustness
+        program, ts, run, ck = load_run(out)  # the checkpoint its method reads
         traj = program.task.traj
-        result = run.evaluation(ck, PAPER)  # a rerun that trained nothing more keeps its evaluation
-        if result is None or (result.get("epoch"), result.get("run_epochs")) != (int(ts.epoch), run.trained_epochs()):
+        result = run.evaluation(ck, PAPER)  # a rerun that trained nothing more keeps its evaluation (if current)
+        if result is None or (result.get("epoch"), result.get("run_epochs")) != (int(ts.epoch), run.trained_epochs()) \
+                or not all(k in c for c in result["cells"] for k, _, _ in PHYSICAL):
             result, _ = evaluate_loaded(program, ts, run, ck, PAPER)
         stages(2, f"2/4 evaluated {ck.name}")
         plot_success(result, out / "success_vs_damping.png")

@@ -107,6 +107,9 @@ def folder_lock(folder: str | os.PathLike) -> Iterator[Path]:
         os.close(fd)
         raise FolderBusy(f"{folder}: in use by another writer (process {holder}); wait for it to end, or write "
                             "to another folder") from None
+    except OSError as e:  # storage without locks (some network filesystems)
+        os.close(fd)
+        raise DragMeshError(f"{folder}: cannot be locked ({e.strerror}); write to local storage") from None
     try:
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}: {' '.join(sys.argv[:8])}\n".encode(), 0)

@@ -791,10 +791,11 @@ def training_curves(table: str, c: ReproduceConfig, out: Path) -> Path | None:
     return path
 
 
-def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path) -> Path:
-    """``<table>.md`` and ``<table>.json`` (and Figure 2 for main/ablation) from the evaluations; a table already
-    there with more cells is kept (said on stderr), never replaced by a smaller one."""
-    kept = _cells(out / f"{table}.json")
+def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path, keep_larger: bool = False) -> Path:
+    """``<table>.md`` and ``<table>.json`` (and Figure 2 for main/ablation) from the evaluations; with
+    ``keep_larger`` (tables written without running) a table already there with more cells is kept (said on
+    stderr), never replaced by a smaller one."""
+    kept = _cells(out / f"{table}.json") if keep_larger else 0
     if kept > sum(len(r["cells"]) for r in results):
         print(f"note: {out / table}.md kept: it has {kept} cells, these evaluations "
               f"{sum(len(r['cells']) for r in results)}", file=sys.stderr)
@@ -922,7 +923,7 @@ def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: 
         t0 = time.time()
         if run:
             execute(steps, c, out, progress, on_step)
-        paths = [write_table(t, configs[t], _results(t, configs[t], out), out) for t in tables]
+        paths = [write_table(t, configs[t], _results(t, configs[t], out), out, keep_larger=not run) for t in tables]
         if run:
             _write_plans(out, {**recorded, **configs}, round(time.time() - t0, 1))
     return paths
@@ -940,7 +941,8 @@ def _read_plans(out: Path) -> dict[str, ReproduceConfig]:
         return {}
     try:
         data = json.loads(path.read_text())
-        plans = data["plans"]
+        # a folder reproduced before plans were kept per table: its one config for each of its tables
+        plans = data["plans"] if "plans" in data else {t: data["config"] for t in data["tables"]}
         return {t: ReproduceConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg.items()})
                 for t, cfg in plans.items() if t in TABLES}
     except (json.JSONDecodeError, KeyError, TypeError, AttributeError) as e:

@@ -10,8 +10,8 @@ import jax.numpy as jnp
 import pytest
 
 from dragmesh2_jax.assets.procedural import packaged_object
-from dragmesh2_jax.bench import PAPER_EPOCHS, bench_soak, bench_train, learning_regressions
-from tests.conftest import installed_command, tiny_program
+from dragmesh2_jax.bench import bench_soak, learning_regressions
+from tests.conftest import installed_command
 
 dragmesh2 = installed_command()
 
@@ -34,17 +34,6 @@ def test_bench_env_mixes_objects_in_one_batch(capsys):
                       "--json"]) == 0
     (row,) = json.loads(capsys.readouterr().out)
     assert row["objects"] == 2 and row["num_envs"] == 4 and row["physics_steps_per_s"] > 0
-
-
-def test_bench_train_reports_compile_budget_and_a_seed_column():
-    program = tiny_program()
-    one, column = bench_train(program, epochs=1), bench_train(program, epochs=1, runs=2)
-    assert one["runs"] == 1 and column["runs"] == 2
-    c = program.config
-    for r in (one, column):
-        assert r["env_steps_per_s"] == pytest.approx(r["runs"] * c.num_envs * c.rollout_len / r["s_per_epoch"],
-                                                     rel=1e-2)
-        assert r["budget_s"] == pytest.approx(r["first_epoch_s"] + (PAPER_EPOCHS - 1) * r["s_per_epoch"], abs=0.2)
 
 
 @pytest.mark.mjx

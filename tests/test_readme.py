@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from dragmesh2_jax import reproduce as reproduce_lib
+from dragmesh2_jax.bench import PAPER_EPOCHS
 from tests.conftest import ROOT, SHARED, installed_command, require_shared
 from tests.test_reproduce import FakeSteps
 
@@ -47,11 +48,11 @@ BUDGETS = [
     ("dragmesh2 train --method pica --objects ", TRAIN),
     ("dragmesh2 train --method pica --dataset ", TRAIN),
     ("dragmesh2 evaluate --checkpoint runs/pica_45261 ", ["--episodes", "1"]),
-    ("dragmesh2 evaluate --checkpoint runs/hold/checkpoints/final ", ["--episodes", "1", "--mode", "det"]),
+    ("dragmesh2 evaluate --checkpoint runs/hold", ["--episodes", "1", "--mode", "det"]),
     ("dragmesh2 evaluate --checkpoint runs/mix ", ["--episodes", "1", "--mode", "det"]),
     ("dragmesh2 finetune --checkpoint runs/mix ", ["--epochs", "1"]),
     ("dragmesh2 finetune --checkpoint runs/pica_45261 ", ["--epochs", "1"]),
-    ("dragmesh2 bench train ", ["--num-envs", "2", "--runs", "1", "--epochs", "1"]),
+    ("dragmesh2 bench train ", ["--num-envs", "2", "--runs", "1,2", "--epochs", "1"]),
     ("dragmesh2 bench learning --record ", ["--epochs", "1", "--seeds", "0"]),
     ("dragmesh2 bench learning --against ", []),
     ("dragmesh2 video ", ["--damping", "1,2", "--every", "100"]),
@@ -132,6 +133,16 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, displ
     tuned = json.loads(Path("runs/mix_45780/run.json").read_text())
     assert tuned["object"].endswith("45780") and tuned["objects"] == [] and tuned["finetune"] == "continued"
     assert list(Path("runs/pica_45261/evaluations").glob("*.json")) and list(Path(".").glob("pica.*"))
+    # the recipe, trained and evaluated with no checkpoint or damping flag: its final checkpoint at x1-x8 and x16
+    (recipe,) = Path("runs/hold/evaluations").glob("*.json")
+    cells = json.loads(recipe.read_text())["cells"]
+    assert recipe.name.startswith("final__") and [c["damping"] for c in cells] == [1.0, 2.0, 4.0, 8.0, 16.0]
+    # bench train: s/epoch and env steps/s of each column of seeds, and the paper's budget from them
+    one, column = json.loads(printed["dragmesh2 bench train "].out)
+    assert (one["runs"], column["runs"]) == (1, 2)
+    for r in (one, column):
+        assert r["env_steps_per_s"] == pytest.approx(r["runs"] * 2 * 32 / r["s_per_epoch"], rel=1e-2)
+        assert r["budget_s"] == pytest.approx(r["first_epoch_s"] + (PAPER_EPOCHS - 1) * r["s_per_epoch"], abs=0.2)
     for table in ("rep/main.md", "rep/ablation.md", "rep2/main.md", "rep4/main.md", "gen/generalist.md",
                   "scal/scaling.md", "tiny/damping-range.md"):
         assert Path(table).is_file(), table

@@ -238,6 +238,11 @@ def test_tables_only_reads_the_plan_the_reproduction_recorded(tmp_path, monkeypa
     again = json.loads((tmp_path / "main.json").read_text())
     assert again["results"] == written and again["config"]["methods"] == ["tracking", "state_only", "pica"]
     assert "| state_only | x1 |" in path.read_text() and "**Partial**" not in path.read_text()
+    # a folder reproduced before plans were kept per table (one config, its tables) reads the same
+    (tmp_path / "reproduce_run.json").write_text(json.dumps({"tables": ["main"], "seconds": 1.0,
+                                                             "config": dataclasses.asdict(c)}))
+    reproduce(["main"], defaults, tmp_path, progress=False, run=False)
+    assert json.loads((tmp_path / "main.json").read_text())["results"] == written
 
 
 def test_the_papers_cells_cover_its_seven_objects_and_average_to_its_avg_column():

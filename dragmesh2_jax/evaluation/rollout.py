@@ -74,8 +74,9 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
         state = step(state, u)
         after = kinematics(state.physics)
         m = state.metrics
-        # the commanded increment in action units (a target controller's as the action that would ask for it)
-        a = u if r.controls == "actions" else (u - before.hand_q) / task.config.alpha
+        # the applied action (a target controller's as the action the step derives from its target)
+        a = u if r.controls == "actions" else jnp.clip(
+            (jnp.clip(u, task.params.hand_lo, task.params.hand_hi) - before.hand_q) / task.config.alpha, -1.0, 1.0)
         dt = task.config.control_dt
 
         def peak(name, value):

@@ -97,7 +97,8 @@ def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | No
               backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
               task_changes: dict | None = None, scene_changes: dict | None = None,
               network_changes: dict | None = None, selection: Selection | None = None,
-              save_every: int | None = None, progress: bool = True, wandb: str | None = None, holdout: int = 0,
+              save_every: int | None = None, progress: bool = True, wandb: str | None = None,
+              holdout: int | None = None,
               **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
     record (``resume``: ``ppo["epochs"]`` extends it; a method, object or config value that differs from the record
@@ -107,26 +108,31 @@ def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | No
         raise DragMeshError("--seeds: no seeds given")
     runs = [RunDir(Path(out) / f"seed_{s}") for s in seeds] if seeds else [RunDir(out)]
     if resume:
+        if trajectory is not None:
+            raise DragMeshError(f"{out}: --resume continues the run on the trajectories it keeps; drop --trajectory")
         _check_resume(runs, method, object_dir, {k: v for k, v in ppo.items() if k != "epochs"},
-                      task_changes, scene_changes, network_changes)
+                      task_changes, scene_changes, network_changes, holdout)
         program, _, logs = start_or_resume(None, runs, resume=True, epochs=ppo.get("epochs"), backend=backend,
                                            impl=impl, save_every=save_every, selection=selection, progress=progress,
                                            wandb=wandb)
         return program, [(r.spec().ppo.seed, rows) for r, rows in zip(runs, logs, strict=True)]
     spec = method_spec(method or DEFAULT_METHOD, object_dir, ppo, task_changes, scene_changes, backend, impl,
-                       network_changes, holdout)
+                       network_changes, holdout or 0)
     program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, save_every=save_every,
                                        selection=selection, progress=progress, wandb=wandb)
     return program, list(zip(seeds or [spec.ppo.seed], logs, strict=True))
 
 
 def _check_resume(runs: list[RunDir], method: str | None, object_dir, ppo: dict, task: dict | None,
-                  scene: dict | None, network: dict | None) -> None:
+                  scene: dict | None, network: dict | None, holdout: int | None) -> None:
     """A resume continues the recorded runs exactly: flags that would change one are refused, saying what differs."""
     for run in runs:
         if not run.exists():
             continue  # start_or_resume says there is nothing to resume
-        differ = run.spec().differences(method, object_dir, ppo=ppo, task=task, scene=scene, network=network)
+        spec = run.spec()
+        differ = spec.differences(method, object_dir, ppo=ppo, task=task, scene=scene, network=network)
+        if holdout is not None and holdout != spec.holdout:
+            differ.append(f"holdout {holdout} (recorded {spec.holdout})")
         if differ:
             raise DragMeshError(f"{run.path}: --resume continues the recorded run exactly, but the flags change "
                                 f"{'; '.join(differ)}; drop them, or start a new run in another --out")

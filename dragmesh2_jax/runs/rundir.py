@@ -116,7 +116,8 @@ class RunDir:
         intervals) becomes ``spec``'s, rewritten whole and atomically; the rest of the record stands."""
         record = dict(self.record())
         record["ppo"] = {**record["ppo"], "epochs": spec.ppo.epochs}
-        record["schedule"] = {"save_every": spec.save_every, "robust_every": spec.robust_every}
+        record["schedule"] = {"save_every": spec.save_every, "robust_every": spec.robust_every,
+                              "checkpoint": spec.checkpoint}
         atomic_write_json(self.record_path, record)
         self._record = None
 

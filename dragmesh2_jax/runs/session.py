@@ -85,8 +85,8 @@ def _restore(template: TrainState, path) -> TrainState:
         return load_checkpoint(template, path)
     except DragMeshError:
         ts = load_checkpoint(template, path, keep_env=True)  # the policy itself must load, or this is the error
-        print(f"note: {path}: its worlds were saved in another layout (an earlier version): training continues "
-              "from its policy with fresh worlds, not bit-exact", file=sys.stderr)
+        print(f"note: {path}: its worlds could not be restored (saved in another layout by an earlier version, or "
+              "damaged): training continues from its policy with fresh worlds, not bit-exact", file=sys.stderr)
         return ts
 
 
@@ -162,6 +162,9 @@ def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backe
         if not recorded:
             raise DragMeshError(f"{runs[0].path}: nothing to resume (no run.json; start the run without --resume)")
         spec, seeds = runs[0].spec(), [r.spec().ppo.seed for r in runs]  # stopped before its first checkpoint
+        if spec.parent is not None and start is None:
+            raise DragMeshError(f"{runs[0].path}: a fine-tune stopped before its first checkpoint: run its finetune "
+                                "command again (it starts from its parent's checkpoint)")
         trajectory = runs[0].trajectories()
         spec = spec.on(backend, impl) if backend else spec
     if resume is None:

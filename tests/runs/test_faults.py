@@ -2,6 +2,7 @@
 a resume would silently drop are refused, and operating-system faults (not a folder, not creatable, read-only, a
 full disk, an interrupt) are one ``error:`` line with nothing lost."""
 
+import dataclasses
 import errno
 import json
 import shutil
@@ -13,7 +14,8 @@ from tensorboardX.proto import event_pb2
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.policies.methods import RECIPE_DAMPINGS, RECIPE_EPOCHS
+from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.policies.methods import RECIPE_EPOCHS
 from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.spec import method_spec
@@ -85,28 +87,31 @@ def test_a_full_disk_is_one_line_and_the_same_run_resumes_once_there_is_space(ru
         real(self, rows)
     real = RunDir.write_log
     monkeypatch.setattr(RunDir, "write_log", write_log)
-    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "4", "--save-every", "1", "--quiet"]) == 2
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "4", "--save-every", "1", "--quiet",
+                      "--robust-every", "0"]) == 2
     one_error(capsys, "No space left on device; free some space and run the same command again")
     assert sorted(RunDir(run).epoch_checkpoints()) == [1, 2, 3]  # earlier checkpoints stand, readable
     assert not [p for p in run.rglob("*") if p.name.endswith(".tmp")]  # no temporary file left behind
     monkeypatch.undo()
-    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "4", "--quiet"]) == 0
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "4", "--quiet", "--robust-every", "0"]) == 0
     assert [r["epoch"] for r in RunDir(run).log_rows()] == [1, 2, 3, 4]
 
 
-def test_a_run_stopped_before_its_first_checkpoint_restarts_with_the_same_command(tmp_path, monkeypatch, capsys):
+def test_a_run_stopped_before_its_first_checkpoint_restarts_with_the_same_command(trained, tmp_path, monkeypatch,
+                                                                                  capsys):
     def interrupt(self, rows):
         raise KeyboardInterrupt
+    traj = ["--trajectory", str(trained / "trajectory.json")]  # the packaged drawer's, made once
     monkeypatch.setattr(RunDir, "write_log", interrupt)
-    assert train(tmp_path / "run") == 130
+    assert train(tmp_path / "run", *traj) == 130
     one_error(capsys, "interrupted")
     assert RunDir(tmp_path / "run").exists() and not RunDir(tmp_path / "run").epoch_checkpoints()
     monkeypatch.undo()
-    assert train(tmp_path / "run") == 0  # the same command
+    assert train(tmp_path / "run", *traj) == 0  # the same command
     assert RunDir(tmp_path / "run").trained_epochs() == 2
     # and --resume of such a folder starts it again from its record
     monkeypatch.setattr(RunDir, "write_log", interrupt)
-    assert train(tmp_path / "other", "--seed", "7", "--epochs", "1") == 130
+    assert train(tmp_path / "other", "--seed", "7", "--epochs", "1", *traj) == 130
     monkeypatch.undo()
     assert dragmesh2(["train", "--out", str(tmp_path / "other"), "--resume", "--quiet"]) == 0
     assert RunDir(tmp_path / "other").spec().ppo.seed == 7 and RunDir(tmp_path / "other").trained_epochs() == 1
@@ -128,7 +133,12 @@ def test_a_resume_refuses_changed_flags_and_a_longer_schedule_extends_the_record
         assert what in line
     assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "1"]) == 2
     one_error(capsys, "already trained 2 epochs")
-    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--method", "pica", "--quiet"]) == 0
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--holdout", "1"]) == 2
+    one_error(capsys, "holdout 1 (recorded 0)")
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--trajectory", str(run / "trajectory.json")]) == 2
+    one_error(capsys, "drop --trajectory")
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--method", "pica", "--quiet",
+                      "--robust-every", "0"]) == 0
     assert RunDir(run).spec().ppo.epochs == 3 and RunDir(run).trained_epochs() == 3
 
 
@@ -211,24 +221,30 @@ def test_a_run_whose_worlds_an_earlier_version_saved_continues_from_its_policy(r
             raise DragMeshError(f"{path}: checkpoint does not match this method/config or is damaged (env)")
         return real(template, path, keep_env=True)
     monkeypatch.setattr(session, "load_checkpoint", earlier)
-    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet"]) == 0
-    assert "its worlds were saved in another layout" in capsys.readouterr().err
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet", "--robust-every", "0"]) == 0
+    assert "its worlds could not be restored" in capsys.readouterr().err
     assert RunDir(run).trained_epochs() == 3
 
 
-def test_the_recipe_trains_at_its_budget_and_is_read_by_its_rule_with_no_flags(tmp_path, capsys):
-    """``train --method recommended`` records the recipe's schedule (its budget, twice the paper's, and its
-    checkpoint rule: the final one); ``evaluate --checkpoint RUN`` with no flags then reads that checkpoint over the
-    recipe's cells, x1-x8 and x16 beyond its training range. (A tiny budget here: --epochs 1.)"""
+def test_a_resume_that_revises_the_schedule_keeps_the_checkpoint_rule(tmp_path):
+    """The recipe's runs are read at their final checkpoint; a resume that trains further rewrites the record's
+    schedule and must keep that rule (the recipe's train-then-evaluate with no flags: tests/test_readme.py)."""
     spec = method_spec("recommended", str(default_object()))
-    assert (spec.ppo.epochs, spec.checkpoint) == (RECIPE_EPOCHS, "final") and method_spec(
-        "pica", str(default_object())).checkpoint == "best_robust"
-    run = tmp_path / "recipe"
-    assert dragmesh2(["train", "--method", "recommended", "--object", str(default_object()), "--out", str(run),
-                      *TINY, "--epochs", "1", "--robust-every", "1"]) == 0
-    assert RunDir(run).spec().checkpoint == "final" and RunDir(run).has_checkpoint("best_robust")  # not the one read
+    assert (spec.ppo.epochs, spec.checkpoint) == (RECIPE_EPOCHS, "final")
+    run = RunDir(tmp_path / "run")
+    atomic_write_json(run.record_path, spec.record("mujoco"))
+    run.revise(dataclasses.replace(spec, ppo=dataclasses.replace(spec.ppo, epochs=400), save_every=5))
+    assert run.spec().checkpoint == "final" and run.spec().schedule == (400, 5, spec.robust_every)
+def test_a_fine_tune_stopped_before_its_first_checkpoint_is_not_restarted_from_scratch(run, tmp_path, monkeypatch,
+                                                                                        capsys):
+    def interrupt(self, rows):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(RunDir, "write_log", interrupt)
+    assert dragmesh2(["finetune", "--checkpoint", str(run), "--recipe", "continued", "--epochs", "1", "--out",
+                      str(tmp_path / "ft"), "--quiet", "--backend", "mujoco", "--robust-every", "0"]) == 130
+    monkeypatch.undo()
     capsys.readouterr()
-    assert dragmesh2(["evaluate", "--checkpoint", str(run), "--episodes", "1", "--mode", "det", "--json"]) == 0
-    result = json.loads(capsys.readouterr().out)
-    assert result["checkpoint"].endswith("checkpoints/final")
-    assert [c["damping"] for c in result["cells"]] == list(RECIPE_DAMPINGS) == [1.0, 2.0, 4.0, 8.0, 16.0]
+    assert dragmesh2(["train", "--out", str(tmp_path / "ft"), "--resume"]) == 2
+    one_error(capsys, "run its finetune command again")
+    assert dragmesh2(["finetune", "--checkpoint", str(run), "--recipe", "continued", "--epochs", "1", "--out",
+                      str(tmp_path / "ft"), "--quiet", "--backend", "mujoco", "--robust-every", "0"]) == 0  # again
