@@ -525,37 +525,28 @@ def _cost(step: Run | Eval, c: ReproduceConfig) -> float:
 
 
 def execute(steps: list[Run | Eval], c: ReproduceConfig, out: Path, progress: bool = True,
-            on_step: Callable[[Run | Eval], None] | None = None) -> list[dict]:
-    """Run every step not yet done; returns every evaluation's result (read back when it was done before). On a
-    terminal a progress bar covers the plan; elsewhere (a log) each finished step is one line with the elapsed and
-    estimated time left."""
-    results = []
-    current = {s: r for s in steps if isinstance(s, Eval) and (r := _current(s, c, out)) is not None}
-    todo = [s for s in steps if s not in current and not _done(s, c, out)]
+            on_step: Callable[[Run | Eval], None] | None = None) -> None:
+    """Run every step not yet done (each writes its result into ``out``). On a terminal a progress bar covers the
+    plan; elsewhere (a log) each finished step is one line with the elapsed and estimated time left."""
+    todo = [s for s in steps if not _done(s, c, out)]
     total, spent = sum(_cost(s, c) for s in todo), 0.0
     lines = LogLines("reproduce", total, enabled=progress)
     with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), TextColumn("left"),
                   TimeRemainingColumn(), disable=not progress or to_log()) as bar:
         task = bar.add_task("reproduce", total=max(total, 1.0))
-        for step in steps:
-            if step in current:
-                results.append(current[step])
-                continue
-            if step not in todo:
-                continue
+        for step in todo:
             what = f"train {step.name} s{step.seed} to {step.epochs}" if isinstance(step, Run) \
                 else f"evaluate {step.label}"
             bar.update(task, description=f"{Path(step.object).name}: {what}")
             if isinstance(step, Run):
                 _train(step, c, out)
             else:
-                results.append(_evaluate(step, c, out))
+                _evaluate(step, c, out)
             bar.advance(task, _cost(step, c))
             spent += _cost(step, c)
             lines(spent, f"{Path(step.object).name}: {what} done")
             if on_step:
                 on_step(step)
-    return results
 
 
 def _current(ev: Eval, c: ReproduceConfig, out: Path) -> dict | None:

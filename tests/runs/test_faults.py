@@ -6,11 +6,9 @@ import dataclasses
 import errno
 import json
 import shutil
-import struct
 import sys
 
 import pytest
-from tensorboardX.proto import event_pb2
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
@@ -20,6 +18,7 @@ from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.spec import method_spec
 from tests.conftest import installed_command, read_only
+from tests.runs.test_session import tensorboard_scalars
 from tests.test_io import hold_lock, release
 
 #: The module's trained run is built once: keep the file on one xdist worker.
@@ -171,29 +170,12 @@ def test_seed_folders_that_disagree_do_not_resume_as_one_program(trained, tmp_pa
     one_error(capsys, "differs from")
 
 
-def tensorboard(folder) -> dict[str, list[int]]:
-    """tag -> steps as TensorBoard shows them: a resumed writer's purge (a session start at step s) drops the steps
-    >= s written before it."""
-    out: dict[str, list[int]] = {}
-    for f in sorted(folder.glob("events.out.tfevents.*")):
-        data, i = f.read_bytes(), 0
-        while i < len(data):
-            (n,) = struct.unpack("<Q", data[i:i + 8])
-            event = event_pb2.Event.FromString(data[i + 12:i + 12 + n])
-            i += 12 + n + 4
-            if event.HasField("session_log") and event.session_log.status == event_pb2.SessionLog.START:
-                out = {tag: [s for s in steps if s < event.step] for tag, steps in out.items()}
-            for v in event.summary.value:
-                out.setdefault(v.tag, []).append(event.step)
-    return out
-
-
 def test_a_resume_after_a_lost_checkpoint_purges_tensorboard_and_carries_best_robust(run):
     """A run stopped after its epoch-2 log but before that checkpoint resumes from epoch 1: the scalars past it are
     dropped and written again, and best_robust is chosen over the robustness rows before and after the resume."""
     shutil.rmtree(RunDir(run).checkpoint("epoch_0002"))
     assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet"]) == 0
-    tags = tensorboard(run / "tb")
+    tags = tensorboard_scalars(run / "tb")
     assert tags["train/reward"] == [1, 2, 3] and tags["robust/mean_success"] == [1, 2, 3]
     rows = RunDir(run).robust_rows()
     assert [r["epoch"] for r in rows] == [1, 2, 3]

@@ -60,8 +60,9 @@ def test_the_log_keeps_every_metric_the_epoch_returns(trained_run):
     assert set(header) == set(row)
 
 
-def _tensorboard_scalars(folder) -> dict[str, list[int]]:
-    """tag -> steps, read from TensorBoard event files (TFRecord framing: length, crc, event, crc)."""
+def tensorboard_scalars(folder) -> dict[str, list[int]]:
+    """tag -> steps as TensorBoard shows them, read from its event files (TFRecord framing: length, crc, event, crc):
+    a resumed writer's purge (a session start at step s) drops the steps >= s written before it."""
     out: dict[str, list[int]] = {}
     for f in sorted(folder.glob("events.out.tfevents.*")):
         data, i = f.read_bytes(), 0
@@ -69,13 +70,15 @@ def _tensorboard_scalars(folder) -> dict[str, list[int]]:
             (n,) = struct.unpack("<Q", data[i:i + 8])
             event = event_pb2.Event.FromString(data[i + 12:i + 12 + n])
             i += 12 + n + 4
+            if event.HasField("session_log") and event.session_log.status == event_pb2.SessionLog.START:
+                out = {tag: [s for s in steps if s < event.step] for tag, steps in out.items()}
             for v in event.summary.value:
                 out.setdefault(v.tag, []).append(event.step)
     return out
 
 
 def test_tensorboard_scalars_beside_the_logs(trained_run):
-    tags = _tensorboard_scalars(trained_run.tensorboard)
+    tags = tensorboard_scalars(trained_run.tensorboard)
     assert tags["train/reward"] == [1, 2, 3, 4] and tags["train/clip099"] == [1, 2, 3, 4]
     assert tags["robust/mean_success"] == [2, 4]
 
