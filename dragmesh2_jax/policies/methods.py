@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.networks import NetworkConfig
-from dragmesh2_jax.task.config import LoadConstraint, ResetNoise, RewardConfig
+from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig
+from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
 #: Which checkpoint stands for a run: ``best_robust``, the paper's selection by robustness during training (App.
 #: B.3-B.4; ``final`` where the run has none), or ``final``, its last epoch's.
@@ -31,6 +32,16 @@ CHECKPOINT_RULES = ("best_robust", "final")
 #: The recipe's evaluation cells: its training range x1-x8 and x16 beyond it (out of its training distribution).
 RECIPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
 RECIPE_EPOCHS = 300  # twice the paper's budget: where it holds the validation doors at x1-x4 (RESULTS.md §3)
+
+#: ``hold_plausible``'s bounds on how the part is opened (issue 33): the palm no faster than PALM_SPEED_LIMIT (the
+#: expert's palm peaks at 0.09-0.19 m/s on every object, RESULTS.md §7), the wrist's pull within what the grasp holds
+#: (RewardConfig.f_hold) and a saturated active DoF in at most SATURATION_BUDGET of the steps; each a rate (the fraction
+#: of steps past its limit) whose budget dual ascent meets, its multiplier bounded far above the weight that meets it.
+PALM_SPEED_LIMIT = 0.25  # m/s
+SATURATION_BUDGET = 0.2
+PLAUSIBLE = (Constraint("palm_speed", PALM_SPEED_LIMIT, "rate", budget=0.02, lr=10.0, lambda_max=100.0),
+             Constraint("load", RewardConfig.f_hold, "rate", budget=0.02, lr=10.0, lambda_max=100.0),
+             Constraint("saturation", CLIP_LEVEL, "rate", budget=SATURATION_BUDGET, lr=10.0, lambda_max=100.0))
 
 
 @dataclass(frozen=True)
@@ -44,7 +55,7 @@ class Method:
     damping_range: tuple[float, float] | None = None  # training range; None: the paper's [1, 2]
     reset_noise: bool = False  # train from perturbed expert grasps (TaskConfig.reset_noise)
     w_load: float = 0.0  # the load-budget reward (RewardConfig.w_load)
-    load_constraint: LoadConstraint | None = None  # the wrist load as a CMDP constraint (RewardConfig)
+    constraints: tuple[Constraint, ...] = ()  # CMDP constraints (RewardConfig.constraints)
     network: NetworkConfig = field(default_factory=NetworkConfig)  # the actor-critic's sizes
     epochs: int | None = None  # its training budget (None: the paper's, PPOConfig.epochs)
     checkpoint: str = "best_robust"  # the checkpoint that stands for its runs: best_robust (paper) | final
@@ -85,15 +96,19 @@ METHODS = {m.name: m for m in (
            reset_noise=True, w_load=5.0),
     Method("hold_cmdp", "gla", True, "PICA-Hold with the wrist load as a CMDP constraint: a Lagrange multiplier, "
            "moved by dual ascent, weighs the pull beyond what the grasp holds", critic="privileged", force_obs=True,
-           damping_range=(1.0, 8.0), reset_noise=True, load_constraint=LoadConstraint()),
+           damping_range=(1.0, 8.0), reset_noise=True, constraints=(Constraint(),)),
     Method("hold_blind", "gla", True, "PICA-Hold without force or touch sensing (the paper's observation): "
            "privileged critic, damping [1, 8], perturbed starts; trained twice the paper's budget and read at its "
            "final checkpoint (best_robust's x1/x2/x4 saturates and keeps an early one: RESULTS.md §3)",
            critic="privileged", damping_range=(1.0, 8.0), reset_noise=True, epochs=RECIPE_EPOCHS, checkpoint="final",
            dampings=RECIPE_DAMPINGS),
+    Method("hold_plausible", "gla", True, "the recipe (hold_blind) held within a person's reach: the palm's pace, "
+           "the wrist load and saturation as CMDP constraints, each met by dual ascent", critic="privileged",
+           damping_range=(1.0, 8.0), reset_noise=True, constraints=PLAUSIBLE, epochs=RECIPE_EPOCHS,
+           checkpoint="final", dampings=RECIPE_DAMPINGS),
     Method("hold_blind_cmdp", "gla", True, "PICA-Hold without force or touch sensing and with the wrist load as a "
            "CMDP constraint (the load is seen by the critic and the cost, never by the policy)",
-           critic="privileged", damping_range=(1.0, 8.0), reset_noise=True, load_constraint=LoadConstraint()),
+           critic="privileged", damping_range=(1.0, 8.0), reset_noise=True, constraints=(Constraint(),)),
 )}
 #: ``--method recommended``: the project's best recipe (RESULTS.md says why), wherever a method is taken.
 RECOMMENDED = "hold_blind"
@@ -125,6 +140,6 @@ def task_overrides(method: Method) -> dict:
         out["reset_noise"] = ResetNoise()
     if method.w_load:
         out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), w_load=method.w_load)
-    if method.load_constraint is not None:
-        out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), load_constraint=method.load_constraint)
+    if method.constraints:
+        out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), constraints=method.constraints)
     return out

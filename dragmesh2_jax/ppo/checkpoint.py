@@ -28,7 +28,7 @@ def save_checkpoint(ts: TrainState, path: str | Path) -> Path:
     shutil.rmtree(tmp, ignore_errors=True)
     ck = ocp.StandardCheckpointer()
     try:
-        ck.save(tmp / "learner", ts.replace(env_state=None))
+        ck.save(tmp / "learner", _learner_fields(ts))
         ck.save(tmp / "env", _sized_leaves(ts.env_state))
         ck.wait_until_finished()
     except BaseException:  # a full disk, an interrupt: no half-written sibling is left, the old checkpoint stands
@@ -45,15 +45,32 @@ def save_checkpoint(ts: TrainState, path: str | Path) -> Path:
 
 
 #: TrainState fields added after checkpoints were first written: a checkpoint without one restores with the
-#: template's value, which is what that run had (a run before the load constraint had no multiplier: 0).
-LATER_FIELDS = frozenset({"load_lambda"})
+#: template's value (the constraints' multipliers at 0: a run before them had none, and one of the single load
+#: constraint, whose scalar multiplier is not read, starts its multiplier again from 0 on resume).
+LATER_FIELDS = frozenset({"multipliers"})
+
+
+def _learner_fields(ts: TrainState) -> dict:
+    """The learner (the TrainState without its worlds) by field, without the empty ones Orbax refuses (the
+    multipliers of a reward with no constraint): they restore as the template's."""
+    return {f.name: getattr(ts, f.name) for f in dataclasses.fields(ts)
+            if f.name != "env_state" and not _empty(getattr(ts, f.name))}
+
+
+def _empty(x) -> bool:
+    return getattr(x, "size", None) == 0
 
 
 def _restore_learner(ck: ocp.StandardCheckpointer, path: Path, learner: TrainState) -> TrainState:
     stored = ck.metadata(path).item_metadata.tree
-    held = {f.name: getattr(learner, f.name) for f in dataclasses.fields(learner)
-            if f.name in stored or f.name not in LATER_FIELDS}
-    return learner.replace(**ck.restore(path, held))
+    fields = _learner_fields(learner)
+    held = {k: v for k, v in fields.items() if k in stored or k not in LATER_FIELDS}
+    # what the checkpoint holds beyond the learner's fields is read and dropped: the empty worlds of checkpoints
+    # written as a whole TrainState, the single load constraint's scalar multiplier
+    extra = {k: None if m is None else jax.ShapeDtypeStruct(m.shape, m.dtype) for k, m in stored.items()
+             if k not in fields}
+    restored = ck.restore(path, held | extra)
+    return learner.replace(**{k: v for k, v in restored.items() if k in fields})
 
 
 def _key(i: int) -> str:

@@ -13,8 +13,8 @@ the same structure (``task.data``, an argument) or another seed reuses it.
 
 Python loops over epochs (``train`` with callbacks: logs, checkpoints and robustness checks are the caller's).
 Time-limit truncations bootstrap from V(final observation); terminations (success, detachment) do not. The
-reward's adaptive weights, ARAM's (facts §5, ``ts.aram_lambda``) and the load constraint's Lagrange multiplier
-(``ts.load_lambda``, dual ascent on the epoch's mean cost), are bound into the task's reward parameters for the
+reward's adaptive weights, ARAM's (facts §5, ``ts.aram_lambda``) and the constraints' Lagrange multipliers
+(``ts.multipliers``, dual ascent on each epoch's mean cost), are bound into the task's reward parameters for the
 epoch's rollout and moved once per epoch.
 """
 
@@ -40,9 +40,10 @@ from dragmesh2_jax.policies.networks import ActorCritic, make_inference_fn
 from dragmesh2_jax.policies.normalize import RunningStats
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.losses import Batch, compute_gae, compute_ppo_loss, gaussian_logp
-from dragmesh2_jax.task.config import AramConfig, LoadConstraint
+from dragmesh2_jax.task.config import AramConfig, Constraint
 from dragmesh2_jax.task.env import PullTask, TaskData
 from dragmesh2_jax.task.protocol import CLIP_LEVEL, Obs
+from dragmesh2_jax.task.rewards import cost_metric
 from dragmesh2_jax.task.wrappers import AutoReset
 
 RUN_AXIS = "runs"  # the mesh axis the run (seed) axis is sharded over
@@ -62,7 +63,7 @@ class TrainState:
     epoch: jnp.ndarray
     lr: jnp.ndarray
     aram_lambda: jnp.ndarray  # the ARAM weight of the reward (0 unless the task's reward has ARAM)
-    load_lambda: jnp.ndarray  # the load constraint's multiplier (0 unless the task's reward has one)
+    multipliers: jnp.ndarray  # the reward's constraints' Lagrange multipliers, in its order (shape (0,) without)
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,8 +131,8 @@ def _env(program: TrainProgram, data: TaskData, ts: TrainState | None = None) ->
     reward = program.task.config.reward
     if ts is not None and reward.aram is not None:
         data = data.replace(params=data.params.replace(aram_lambda=ts.aram_lambda))
-    if ts is not None and reward.load_constraint is not None:
-        data = data.replace(params=data.params.replace(load_lambda=ts.load_lambda))
+    if ts is not None and reward.constraints:
+        data = data.replace(params=data.params.replace(multipliers=ts.multipliers))
     return AutoReset(program.task.bind(data))
 
 
@@ -158,7 +159,8 @@ def init(program: TrainProgram, data: TaskData, key: jax.Array) -> TrainState:
                       aux_stats=RunningStats.create(obs.aux.shape[-1]),
                       privileged_stats=RunningStats.create(obs.privileged.shape[-1]),
                       value_stats=RunningStats.create(1), rng=rng, epoch=jnp.int32(0), lr=jnp.float32(c.lr),
-                      aram_lambda=jnp.float32(0.0), load_lambda=jnp.float32(0.0))
+                      aram_lambda=jnp.float32(0.0),
+                      multipliers=jnp.zeros(len(program.task.config.reward.constraints), jnp.float32))
 
 
 def _rollout(program: TrainProgram, data: TaskData, ts: TrainState):
@@ -199,8 +201,8 @@ def aram_update(cfg: AramConfig, lam, metrics: dict):
     return jnp.where(ok, jnp.clip(lam + cfg.lr * (metrics["clip099"] - cfg.target), 0.0, cfg.lambda_max), lam)
 
 
-def load_lambda_update(cfg: LoadConstraint, lam, mean_cost):
-    """The load constraint's multiplier once per epoch, by dual ascent on the epoch's mean cost per step:
+def multiplier_update(cfg: Constraint, lam, mean_cost):
+    """A constraint's multiplier once per epoch, by dual ascent on the epoch's mean cost per step:
     lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max)."""
     return jnp.clip(lam + cfg.lr * (mean_cost - cfg.budget), 0.0, cfg.lambda_max)
 
@@ -266,11 +268,12 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
         "clip099_active": jnp.mean(m["active_abs_max"] > CLIP_LEVEL),
         "action_l2": m["action_l2"].mean(), "nonfinite": m["nonfinite"].sum(), "overflow": m["overflow"].sum(),
     }
-    load = program.task.config.reward.load_constraint
-    if load is not None:
-        metrics["load_cost"] = m["load_cost"].mean()
-        ts = ts.replace(load_lambda=load_lambda_update(load, ts.load_lambda, metrics["load_cost"]))
-        metrics["load_lambda"] = ts.load_lambda
+    constraints = program.task.config.reward.constraints
+    metrics |= {cost_metric(x): m[cost_metric(x)].mean() for x in constraints}
+    if constraints:
+        ts = ts.replace(multipliers=jnp.stack([multiplier_update(x, ts.multipliers[i], metrics[cost_metric(x)])
+                                               for i, x in enumerate(constraints)]))
+        metrics |= {f"lambda_{x.measure}": ts.multipliers[i] for i, x in enumerate(constraints)}
     aram = program.task.config.reward.aram
     if aram is not None:
         ts = ts.replace(aram_lambda=aram_update(aram, ts.aram_lambda, metrics))

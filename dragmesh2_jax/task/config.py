@@ -56,22 +56,38 @@ class ReconfigConfig:
     cooldown: int = 10  # steps
 
 
-@dataclass(frozen=True)
-class LoadConstraint:
-    """Beyond the paper, in its CMDP framing (§3): the wrist load as a constraint, not a fixed penalty. The cost
-    c_t = max(0, |F_wrist| - f_limit) / f_limit; the constraint E[c_t] <= ``budget`` per step. Its Lagrange
-    multiplier lambda weighs -lambda c_t in r_t; it starts at 0 and moves once per epoch by dual ascent on the
-    epoch's mean cost J_c: lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max). So the penalty grows only
-    while the policy pulls past what the grasp holds, and relaxes once it stops."""
+#: What a constraint bounds, per control step: the wrist's pull |F_wrist| (N), the palm's speed (m/s), the largest
+#: |a_i| over the DoFs that move (action units; above CLIP_LEVEL the step is saturated) and the deepest hand-object
+#: penetration (m).
+MEASURES = ("load", "palm_speed", "saturation", "penetration")
+#: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
+#: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit).
+COSTS = ("excess", "rate")
 
-    f_limit: float = 100.0  # N: the wrist force the grasp holds (RewardConfig.f_hold; the envelopes, RESULTS §3)
+
+@dataclass(frozen=True)
+class Constraint:
+    """Beyond the paper, in its CMDP framing (§3): a physical quantity as a constraint E[c_t] <= ``budget`` per step,
+    not a fixed penalty. Its Lagrange multiplier lambda weighs -lambda c_t in r_t; it starts at 0 and moves once per
+    epoch by dual ascent on the epoch's mean cost J_c: lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max). The
+    penalty grows only while the policy breaks the budget and relaxes once it keeps it. The defaults are the wrist
+    load of ``hold_cmdp``: the pull beyond what the grasp holds (RewardConfig.f_hold)."""
+
+    measure: str = "load"  # one of MEASURES
+    limit: float = 100.0  # in the measure's units (N, m/s, action units, m)
+    cost: str = "excess"  # one of COSTS
     budget: float = 0.01  # allowed mean cost per step
     lr: float = 50.0  # lambda per unit of mean cost over budget, per epoch
-    lambda_max: float = 20.0
+    lambda_max: float = 20.0  # a bound that keeps the multiplier finite; a budget met leaves it below
 
     def __post_init__(self):
-        if not (self.f_limit > 0 and self.budget >= 0 and self.lr > 0 and self.lambda_max > 0):
-            raise DragMeshError("load constraint: f_limit, lr and lambda_max must be > 0 and budget >= 0")
+        if self.measure not in MEASURES or self.cost not in COSTS:
+            raise DragMeshError(f"constraint: measure must be one of {', '.join(MEASURES)} and cost one of "
+                                f"{', '.join(COSTS)}, got {self.measure!r} and {self.cost!r}")
+        if not (0 < self.limit < math.inf and 0 <= self.budget < math.inf and 0 < self.lr < math.inf
+                and 0 < self.lambda_max < math.inf):
+            raise DragMeshError(f"{self.measure} constraint: limit, lr and lambda_max must be finite and > 0 and "
+                                "budget finite and >= 0")
 
 
 @dataclass(frozen=True)
@@ -97,9 +113,14 @@ class RewardConfig:
     # arm's pulling load passes ~100-120 N, whatever the speed or damping: -w_load max(0, |F| - f_hold) / f_hold.
     w_load: float = 0.0  # off in the paper's methods
     f_hold: float = 100.0  # N, wrist force the grasp holds (measured on the tuning door)
-    load_constraint: LoadConstraint | None = None  # the wrist load as a CMDP constraint (off in the paper's methods)
+    constraints: tuple[Constraint, ...] = ()  # CMDP constraints, one per measure (none in the paper's methods)
     aram: AramConfig | None = None  # diagnostic fine-tunes (paper App. B.5): off in the main recipe
     reconfig: ReconfigConfig | None = None
+
+    def __post_init__(self):
+        measures = [c.measure for c in self.constraints]
+        if len(set(measures)) != len(measures):
+            raise DragMeshError(f"one constraint per measure, got {', '.join(measures)}")
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,7 @@ from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
-from dragmesh2_jax.task.rewards import aram_penalty, load_cost, reconfig_bonus, reward_terms
+from dragmesh2_jax.task.rewards import aram_penalty, constraint_cost, cost_metric, reconfig_bonus, reward_terms
 from dragmesh2_jax.trajectory.schema import RHO, Trajectory
 
 STATE_SIZE = 120
@@ -68,8 +68,8 @@ PRIVILEGED_SIZE = len(randomize.RANDOMIZERS) + FORCE_SIZE
 @struct.dataclass
 class TaskParams:
     """Per-object task boundary from the reference trajectory (paper eq. done/progress), and the reward's
-    adaptive weights, set by the trainer once per epoch: ARAM's and the load constraint's multiplier (0 unless
-    configured)."""
+    adaptive weights, set by the trainer once per epoch: ARAM's and the constraints' multipliers (one per
+    ``RewardConfig.constraints``, in its order; 0 until the trainer moves them)."""
 
     q_start: jnp.ndarray
     q_goal: jnp.ndarray
@@ -79,7 +79,7 @@ class TaskParams:
     hand_hi: jnp.ndarray
     revolute: jnp.ndarray  # the target joint is a hinge (bool)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
-    load_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
+    multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
 
 
 @struct.dataclass
@@ -193,7 +193,8 @@ class PullTask:
         params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
                             q_done=jnp.float32(traj.q_done_at(config.rho)), damping=jnp.float32(scene.config.damping),
                             hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32),
-                            revolute=jnp.bool_(scene.ids.target_is_revolute))
+                            revolute=jnp.bool_(scene.ids.target_is_revolute),
+                            multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
                              fields={f: jnp.asarray(getattr(scene.model, f)) for f in randomize.FIELDS})
@@ -308,12 +309,12 @@ class PullTask:
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (facts §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
-            "stall": jnp.int32(0), "cooldown": jnp.int32(0),
+            "stall": jnp.int32(0), "cooldown": jnp.int32(0), "palm": k.palm.astype(jnp.float32),
         }
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k),
                   step=info["step"])
         zero = jnp.float32(0.0)
-        metrics = {m: zero for m in METRICS} | ({"load_cost": zero} if c.reward.load_constraint is not None else {})
+        metrics = {m: zero for m in METRICS} | {cost_metric(x): zero for x in c.reward.constraints}
         metrics["q"] = k.obj_q.astype(jnp.float32)
         return State(physics=ps, obs=obs, reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
                      truncated=jnp.bool_(False), final_obs=obs, metrics=metrics, info=info)
@@ -367,14 +368,20 @@ class PullTask:
         return Events(d=d, q=q, success=success, detach=detach, terminated=terminated,
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
-    def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray, cost):
-        """r_t (paper eq. totalreward, with the load constraint's term, ARAM or Reconfig when configured) and the
-        reward stage's new state. ``cost``: the load constraint's c_t (None without one)."""
+    def _measures(self, info: dict, k: Kinematics, a: jnp.ndarray) -> dict[str, jnp.ndarray]:
+        """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
+        return {"load": jnp.linalg.norm(k.force[:3]),
+                "palm_speed": jnp.linalg.norm(k.palm - info["palm"]) / self.config.control_dt,
+                "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)), "penetration": k.penetration}
+
+    def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray, costs):
+        """r_t (paper eq. totalreward, with the constraints' term, ARAM or Reconfig when configured) and the reward
+        stage's new state. ``costs``: each constraint's c_t, in the config's order."""
         c, p, info = self.config, self.params, state.info
         terms = reward_terms(c.reward, a, ev.d, ev.q - info["q_prev"], ev.success.astype(jnp.float32),
                              ev.detach.astype(jnp.float32), k.force[:3])
-        if c.reward.load_constraint is not None:
-            terms["load_constraint"] = -p.load_lambda * cost
+        if c.reward.constraints:
+            terms["constraints"] = -jnp.dot(p.multipliers, costs)
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         d_long, q_long = ring(info["d_long"], ev.d), ring(info["q_long"], ev.q)
         stall, cooldown = info["stall"], info["cooldown"]
@@ -394,9 +401,10 @@ class PullTask:
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
-        lc = c.reward.load_constraint
-        cost = None if lc is None else jnp.where(finite, load_cost(lc, k.force[:3]), 0.0).astype(jnp.float32)
-        reward, reward_state = self._reward(state, a, k, ev, finite, cost)
+        measures = self._measures(info, k, a)
+        costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
+                             for x in c.reward.constraints], jnp.float32)
+        reward, reward_state = self._reward(state, a, k, ev, finite, costs)
         # observation
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         e = (ctrl - k.hand_q).astype(jnp.float32)
@@ -405,7 +413,7 @@ class PullTask:
         new_info = {**info, **reward_state, "step": ev.step, "armed": info["armed"] | (ev.d <= c.d_detach),
                     "q_prev": ev.q, "ctrl": ctrl, "d_ring": ring(info["d_ring"], ev.d),
                     "q_ring": ring(info["q_ring"], ev.q), "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)),
-                    "episode_return": ep_return}
+                    "episode_return": ep_return, "palm": k.palm.astype(jnp.float32)}
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(new_info),
                   privileged=self._privileged(new_info, k), step=ev.step)
         metrics = {
@@ -416,7 +424,7 @@ class PullTask:
             "nonfinite": (~finite).astype(jnp.float32), "overflow": overflow.astype(jnp.float32),
             "episode_return": ep_return,
             "episode_length": ev.step.astype(jnp.float32), "q": ev.q,
-        } | ({} if cost is None else {"load_cost": cost})
+        } | {cost_metric(x): costs[i] for i, x in enumerate(c.reward.constraints)}
         return State(physics=ps, obs=obs, reward=reward, done=ev.terminated | ev.truncated, terminated=ev.terminated,
                      truncated=ev.truncated, final_obs=obs, metrics=metrics, info=new_info)
 

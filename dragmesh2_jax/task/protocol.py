@@ -11,8 +11,8 @@ A step reports, per world:
   * ``reward``, ``done`` (terminated or truncated), ``terminated`` (success, detachment, non-finite physics: no
     bootstrap), ``truncated`` (time limit: bootstrap from the value of ``final_obs``);
   * ``obs``: the fields of :class:`Obs` (each policy reads what it may: see ``task/env.py`` for the layout);
-  * ``metrics``: one scalar per name of :data:`METRICS`, belonging to the step just taken (and ``load_cost``
-    where the reward has a load constraint).
+  * ``metrics``: one scalar per name of :data:`METRICS`, belonging to the step just taken (and
+    ``cost_<measure>`` for each constraint of the reward, ``rewards.cost_metric``).
 """
 
 from __future__ import annotations

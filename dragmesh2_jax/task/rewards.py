@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from dragmesh2_jax.task.config import AramConfig, LoadConstraint, ReconfigConfig, RewardConfig
+from dragmesh2_jax.task.config import AramConfig, Constraint, ReconfigConfig, RewardConfig
 
 
 def load_excess(wrist_force: jnp.ndarray, limit: float) -> jnp.ndarray:
@@ -29,10 +29,17 @@ def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp
     }
 
 
-def load_cost(cfg: LoadConstraint, wrist_force: jnp.ndarray) -> jnp.ndarray:
-    """The load constraint's per-step cost c_t (its multiplier weighs it in r_t; its epoch mean moves the
-    multiplier)."""
-    return load_excess(wrist_force, cfg.f_limit)
+def cost_metric(cfg: Constraint) -> str:
+    """The name a constraint's per-step cost has among a step's metrics (its epoch mean in the training log)."""
+    return f"cost_{cfg.measure}"
+
+
+def constraint_cost(cfg: Constraint, x: jnp.ndarray) -> jnp.ndarray:
+    """A constraint's per-step cost c_t from the step's measure ``x`` (its multiplier weighs it in r_t; its epoch
+    mean moves the multiplier)."""
+    if cfg.cost == "rate":
+        return (x > cfg.limit).astype(jnp.float32)
+    return jnp.maximum(x - cfg.limit, 0.0) / cfg.limit
 
 
 def aram_penalty(cfg: AramConfig, lam, stall, d, action, q_resp, delta, revolute):

@@ -59,17 +59,20 @@ def test_a_checkpoint_of_another_structure_or_a_damaged_one_is_a_clear_error(pro
     assert load_checkpoint(_init(pica, 0), tmp_path / "pica", keep_env=True) is not None  # the learner still loads
 
 
-def test_a_checkpoint_from_before_the_load_constraint_restores_with_its_multiplier_at_zero(programs, tmp_path):
+def test_a_checkpoint_from_before_the_constraints_restores_with_their_multipliers_at_zero(programs, tmp_path):
+    """Written before the multipliers were a vector: without them (a run with no constraint) or with the single
+    load constraint's scalar ``load_lambda`` in their place."""
     pica, _ = programs
-    ts = _init(pica, 1).replace(load_lambda=jnp.float32(3.0))
-    save_checkpoint(ts, tmp_path / "ck")
-    learner = ts.replace(env_state=None)  # the learner as a run before the multiplier existed wrote it:
-    learner = {f.name: getattr(learner, f.name) for f in dataclasses.fields(learner) if f.name != "load_lambda"}
-    shutil.rmtree(tmp_path / "ck" / "learner")
-    ck = ocp.StandardCheckpointer()
-    ck.save((tmp_path / "ck" / "learner").absolute(), learner)
-    ck.wait_until_finished()
-    ck.close()
-    old = load_checkpoint(_init(pica, 2), tmp_path / "ck")
-    assert float(old.load_lambda) == 0.0
-    _equal(old.replace(load_lambda=ts.load_lambda), ts)
+    ts = _init(pica, 1)
+    for retired in ({}, {"load_lambda": jnp.float32(3.0)}):
+        save_checkpoint(ts, tmp_path / "ck")
+        learner = ts.replace(env_state=None)  # the learner as a run before the multipliers existed wrote it:
+        learner = {f.name: getattr(learner, f.name) for f in dataclasses.fields(learner) if f.name != "multipliers"}
+        shutil.rmtree(tmp_path / "ck" / "learner")
+        ck = ocp.StandardCheckpointer()
+        ck.save((tmp_path / "ck" / "learner").absolute(), learner | retired)
+        ck.wait_until_finished()
+        ck.close()
+        old = load_checkpoint(_init(pica, 2), tmp_path / "ck")
+        assert old.multipliers.shape == (0,)
+        _equal(old, ts)

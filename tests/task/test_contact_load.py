@@ -1,5 +1,5 @@
 """Contact-load sensing beyond the paper: the force-aware observation and the privileged critic's inputs, and the
-presets that use them train (the load constraint's multiplier moving by dual ascent). The sensors agree between
+presets that use them train (the constraints' multipliers moving by dual ascent). The sensors agree between
 engines within a stated tolerance: MJX-JAX in tests/task/test_tracking.py (the expert drag on 45261), MJX-Warp in
 tests/physics/test_mjx_backend.py."""
 
@@ -13,12 +13,12 @@ import pytest
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.methods import get_method, task_overrides
-from dragmesh2_jax.ppo.train import epoch_jit, init_jit, load_lambda_update
+from dragmesh2_jax.ppo.train import epoch_jit, init_jit, multiplier_update
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import FORCE_SIZE
-from dragmesh2_jax.task.config import LoadConstraint, RewardConfig
+from dragmesh2_jax.task.config import Constraint, RewardConfig
 from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, make_batched
-from dragmesh2_jax.task.rewards import load_cost, reward_terms
+from dragmesh2_jax.task.rewards import constraint_cost, reward_terms
 from tests.conftest import tiny_program
 
 OBJ = str(default_object())
@@ -51,46 +51,58 @@ def test_force_observation_layout_and_privileged_block():
     assert force[..., 6:].min() >= 0 and force[..., 6:].sum(-1).max() > 1.0  # the grasp touches the handle
 
 
-def test_the_load_constraint_weighs_each_steps_cost_by_the_multiplier_the_trainer_binds():
-    """r_t carries -lambda c_t with c_t = max(0, |F_wrist| - f_limit) / f_limit, reported as the step's load_cost
-    (with a limit the grasp always passes, the cost is positive from the first step)."""
-    limit = LoadConstraint(f_limit=1.0)
-    task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(load_constraint=limit))
-    weighed = task.bind(task.data.replace(params=task.data.params.replace(load_lambda=jnp.float32(2.0))))
+def test_each_constraint_weighs_its_steps_cost_by_the_multiplier_the_trainer_binds():
+    """r_t carries -sum_i lambda_i c_i: the load's c_t = max(0, |F_wrist| - limit) / limit, the palm's pace and
+    saturation as rates (1 past the limit), each reported as the step's cost_<measure> (with limits the first step
+    always passes, every cost is positive from the first step)."""
+    limits = (Constraint("load", 1.0), Constraint("palm_speed", 1e-6, "rate"), Constraint("saturation", 0.5, "rate"))
+    task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(constraints=limits))
+    weighed = task.bind(task.data.replace(params=task.data.params.replace(
+        multipliers=jnp.asarray([2.0, 3.0, 5.0], jnp.float32))))
 
     def first_step(t):
         reset, step = make_batched(t)
-        return step(reset(jax.random.split(jax.random.PRNGKey(0), 2), jnp.ones(2)), jnp.zeros((2, 51)))
+        return step(reset(jax.random.split(jax.random.PRNGKey(0), 2), jnp.ones(2)), jnp.ones((2, 51)))
 
     free, paid = jax.device_get(jax.jit(lambda: (first_step(task), first_step(weighed)))())
-    cost = free.metrics["load_cost"]
-    assert (cost > 0).all() and np.allclose(paid.metrics["load_cost"], cost)
-    np.testing.assert_allclose(paid.reward, free.reward - 2.0 * cost, rtol=1e-5, atol=1e-5)
-    assert "load_cost" not in first_step(load_task(OBJ, None, backend="mujoco")).metrics  # off in the paper
+    load, pace, sat = (free.metrics[f"cost_{m}"] for m in ("load", "palm_speed", "saturation"))
+    assert (load > 0).all() and (pace == 1.0).all() and (sat == 1.0).all()
+    assert all(np.allclose(paid.metrics[k], free.metrics[k]) for k in free.metrics if k.startswith("cost_"))
+    np.testing.assert_allclose(paid.reward, free.reward - 2.0 * load - 3.0 - 5.0, rtol=1e-5, atol=1e-4)
+    assert not any(k.startswith("cost_") for k in first_step(load_task(OBJ, None, backend="mujoco")).metrics)
+    with pytest.raises(DragMeshError, match="one constraint per measure"):
+        RewardConfig(constraints=(Constraint("load"), Constraint("load", 50.0)))
 
 
-def test_the_blind_cmdp_preset_trains_and_its_multiplier_takes_one_dual_ascent_step_per_epoch():
-    """hold_blind_cmdp (the policy never observes the load; the cost and the critic do): lambda = clip(0 + lr (J_c -
-    budget), 0, lambda_max) after the first epoch, J_c the epoch's mean cost per step."""
-    program = tiny_program("hold_blind_cmdp", OBJ)
-    limit = program.task.config.reward.load_constraint
-    assert limit == get_method("hold_cmdp").load_constraint and not program.task.config.force_obs
+def test_the_plausible_preset_trains_and_each_multiplier_takes_one_dual_ascent_step_per_epoch():
+    """hold_plausible (the policy never observes the load; the costs and the critic do): lambda_i = clip(0 + lr_i
+    (J_i - budget_i), 0, lambda_max_i) after the first epoch, J_i the epoch's mean cost per step; the saturation
+    rate is the epoch's clip099_active."""
+    program = tiny_program("hold_plausible", OBJ)
+    constraints = program.task.config.reward.constraints
+    assert constraints == get_method("hold_plausible").constraints and not program.task.config.force_obs
     ts, m = epoch_jit(program, program.task.data, init_jit(program, program.task.data, jax.random.PRNGKey(0)))
-    assert int(ts.epoch) == 1 and np.isfinite(float(m["loss"])) and float(m["load_cost"]) >= 0
-    assert float(ts.load_lambda) == pytest.approx(
-        min(max(limit.lr * (float(m["load_cost"]) - limit.budget), 0.0), limit.lambda_max), abs=1e-6)
-    assert float(m["load_lambda"]) == float(ts.load_lambda) and float(ts.aram_lambda) == 0.0
+    assert int(ts.epoch) == 1 and np.isfinite(float(m["loss"])) and float(ts.aram_lambda) == 0.0
+    assert float(m["cost_saturation"]) == pytest.approx(float(m["clip099_active"]), abs=1e-6)
+    for i, x in enumerate(constraints):
+        cost = float(m[f"cost_{x.measure}"])
+        assert 0 <= cost <= 1 and float(m[f"lambda_{x.measure}"]) == float(ts.multipliers[i])
+        assert float(ts.multipliers[i]) == pytest.approx(min(max(x.lr * (cost - x.budget), 0.0), x.lambda_max),
+                                                         abs=1e-5)
 
 
 def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps_it_in_bounds():
-    c = LoadConstraint(budget=0.01, lr=50.0, lambda_max=20.0)
-    assert float(load_lambda_update(c, 1.0, 0.03)) == pytest.approx(2.0)  # 1 + 50 (0.03 - 0.01)
-    assert float(load_lambda_update(c, 1.0, 0.0)) == pytest.approx(0.5)  # relaxes once the pull is under budget
-    assert float(load_lambda_update(c, 0.1, 0.0)) == 0.0 and float(load_lambda_update(c, 19.0, 1.0)) == 20.0
-    cost = lambda f: float(load_cost(c, jnp.asarray([0.0, f, 0.0])))  # noqa: E731
-    assert cost(0.5 * c.f_limit) == 0.0 and cost(c.f_limit) == 0.0 and cost(1.5 * c.f_limit) == pytest.approx(0.5)
-    with pytest.raises(DragMeshError, match="load constraint"):
-        LoadConstraint(budget=-0.1)
+    c = Constraint(budget=0.01, lr=50.0, lambda_max=20.0)
+    assert float(multiplier_update(c, 1.0, 0.03)) == pytest.approx(2.0)  # 1 + 50 (0.03 - 0.01)
+    assert float(multiplier_update(c, 1.0, 0.0)) == pytest.approx(0.5)  # relaxes once the pull is under budget
+    assert float(multiplier_update(c, 0.1, 0.0)) == 0.0 and float(multiplier_update(c, 19.0, 1.0)) == 20.0
+    cost = lambda x, cfg=c: float(constraint_cost(cfg, jnp.float32(x)))  # noqa: E731
+    assert cost(0.5 * c.limit) == 0.0 and cost(c.limit) == 0.0 and cost(1.5 * c.limit) == pytest.approx(0.5)
+    rate = Constraint("palm_speed", 0.25, "rate")
+    assert cost(0.25, rate) == 0.0 and cost(0.26, rate) == 1.0 and cost(9.0, rate) == 1.0
+    for bad in ({"budget": -0.1}, {"measure": "speed"}, {"cost": "square"}, {"lambda_max": float("inf")}):
+        with pytest.raises(DragMeshError, match="constraint"):
+            Constraint(**bad)
 
 
 def test_load_budget_reward_penalises_only_the_pull_beyond_what_the_grasp_holds():
