@@ -398,7 +398,7 @@ def cmd_reproduce(args) -> int:
 def cmd_demo(args) -> int:
     """The main job on the built-in default: trajectory -> the recipe's training -> evaluation x1/x2/x4 -> report."""
     report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed, args.renderer,
-                      args.video_every, args.method, progress=not args.quiet)
+                      args.video_every, args.method, progress=not args.quiet, episodes=args.episodes)
     print(report.read_text())
     _err(f"report: {report}")
     return 0
@@ -714,6 +714,7 @@ def build_parser() -> argparse.ArgumentParser:
     pd.add_argument("--quiet", action="store_true")
     pd.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
     pd.add_argument("--video-every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between video frames")
+    pd.add_argument("--episodes", type=POSITIVE, default=PAPER.episodes, help="episodes per evaluation cell")
     pd.add_argument("--method", default="recommended", help="the method the demo trains (recommended: the project's "
                                                             f"recipe, {RECOMMENDED})")
     _add_renderer_arg(pd)

@@ -5,6 +5,7 @@ a video of the policy at each damping."""
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import sys
 import time
@@ -32,10 +33,11 @@ CPU_EPOCHS = 60  # a small preset on a CPU; on an accelerator the method's own b
 
 def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | None = None, epochs: int | None = None,
              backend: str = "auto", seed: int = 0, renderer: str = "auto", video_every: int = VIDEO_EVERY,
-             method: str = "recommended", progress: bool = True) -> Path:
-    """Run the demo into ``out`` (by default the project's recipe, read by its checkpoint rule); returns the
-    report's path."""
+             method: str = "recommended", progress: bool = True, episodes: int = PAPER.episodes) -> Path:
+    """Run the demo into ``out`` (by default the project's recipe, read by its checkpoint rule; ``episodes`` per
+    evaluation cell); returns the report's path."""
     gpu = jax.default_backend() != "cpu"
+    protocol = dataclasses.replace(PAPER, episodes=episodes)
     epochs = epochs or ((get_method(method).epochs or PPOConfig.epochs) if gpu else CPU_EPOCHS)
     out = Path(out)
     folder = str(object_dir or default_object())
@@ -55,10 +57,10 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
         stages(1, f"1/4 trained ({epochs} epochs)")
         program, ts, run, ck = load_run(out)  # the checkpoint its method reads
         traj = program.task.traj
-        result = run.evaluation(ck, PAPER)  # a rerun that trained nothing more keeps its evaluation (if current)
+        result = run.evaluation(ck, protocol)  # a rerun that trained nothing more keeps its evaluation (if current)
         if result is None or (result.get("epoch"), result.get("run_epochs")) != (int(ts.epoch), run.trained_epochs()) \
                 or not all(k in c for c in result["cells"] for k, _, _ in PHYSICAL):
-            result, _ = evaluate_loaded(program, ts, run, ck, PAPER)
+            result, _ = evaluate_loaded(program, ts, run, ck, protocol)
         stages(2, f"2/4 evaluated {ck.name}")
         plot_success(result, out / "success_vs_damping.png")
         used = grasp_picture(program.task, out / "grasp.png", renderer)
@@ -78,7 +80,7 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
         f"{program.task.backend.name} backend; final training success {rows[-1]['success']:.2f}, "
         f"{rows[-1]['seconds']:.0f} s",
         f"- wall time (all stages): {time.time() - t0:.0f} s on {jax.default_backend()}", "",
-        f"## Evaluation of `{ck.name}` ({PAPER.episodes} episodes per cell, each from a perturbed expert grasp; 95% "
+        f"## Evaluation of `{ck.name}` ({protocol.episodes} episodes per cell, each from a perturbed expert grasp; 95% "
         "Wilson intervals)", "", markdown_table(result), "",
         "![success vs damping](success_vs_damping.png)", "", "The expert grasp state every episode starts from:",
         "", "![expert grasp](grasp.png)", "",

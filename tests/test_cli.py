@@ -1,6 +1,7 @@
 """The command line: inspect on real folders, the demo main job."""
 
 import argparse
+import dataclasses
 import importlib.util
 import json
 
@@ -35,18 +36,21 @@ def test_inspect_json_on_a_real_object(gapartnet_dir, capsys):
 
 
 def test_demo_trains_evaluates_and_reports(tmp_path):
-    """The main job end to end: the project's recipe with a 2-epoch preset (the real one is 60 epochs on a CPU)."""
-    assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet", "--video-every", "100"]) == 0
+    """The main job end to end: the project's recipe with a 2-epoch preset (the real one is 60 epochs on a CPU) and 2
+    episodes per cell (the real one: the paper's 20)."""
+    demo = ["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet", "--video-every", "100", "--episodes", "2"]
+    assert dragmesh2(demo) == 0
     run = RunDir(tmp_path)
-    res = run.evaluation(run.checkpoint("final"), PAPER)  # the recipe's runs are read at their final checkpoint
+    # the recipe's runs are read at their final checkpoint
+    res = run.evaluation(run.checkpoint("final"), dataclasses.replace(PAPER, episodes=2))
     assert run.spec().method == RECOMMENDED and run.policy_checkpoint().name == "final"
     assert res["checkpoint"].endswith("final") and res["protocol"]["starts"]["bank"] >= 1  # perturbed starts
     assert sorted((c["damping"], c["mode"]) for c in res["cells"]) == sorted(
         (d, m) for d in (1.0, 2.0, 4.0) for m in ("det", "stoch"))
-    assert all(c["episodes"] == 20 and len(c["success_ci95"]) == 2 for c in res["cells"])
+    assert all(c["episodes"] == 2 and len(c["success_ci95"]) == 2 for c in res["cells"])
     assert (tmp_path / "robust.csv").is_file()
     report = (tmp_path / "report.md").read_text()
-    assert "| x1 | det |" in report and "success_vs_damping.png" in report
+    assert "| x1 | det |" in report and "success_vs_damping.png" in report and "(2 episodes per cell" in report
     for png in ("success_vs_damping.png", "grasp.png"):
         assert (tmp_path / png).read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "checkpoints" / "final" / "learner").is_dir()
@@ -56,7 +60,7 @@ def test_demo_trains_evaluates_and_reports(tmp_path):
     assert f"({'matplotlib' if render.gl_problem() else 'mujoco'} renderer)" in report
     # a second demo into the folder resumes the run there (nothing more to train) and reports again; a demo of
     # another method is refused, never overwriting the run
-    assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--quiet", "--video-every", "100"]) == 0
+    assert dragmesh2(demo) == 0
     assert RunDir(tmp_path).trained_epochs() == 2
     assert dragmesh2(["demo", "--out", str(tmp_path), "--epochs", "2", "--method", "state_only"]) == 2
 

@@ -70,8 +70,11 @@ class Constraint:
     """Beyond the paper, in its CMDP framing (§3): a physical quantity as a constraint E[c_t] <= ``budget`` per step,
     not a fixed penalty. Its Lagrange multiplier lambda weighs -lambda c_t in r_t; it starts at 0 and moves once per
     epoch by dual ascent on the epoch's mean cost J_c: lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max). The
-    penalty grows only while the policy breaks the budget and relaxes once it keeps it. The defaults are the wrist
-    load of ``hold_cmdp``: the pull beyond what the grasp holds (RewardConfig.f_hold)."""
+    penalty grows only while the policy breaks the budget and relaxes once it keeps it. With a ``success_gate`` the
+    constraint binds only a policy that solves the task: in an epoch whose success is below the gate, J_c counts as
+    0 (the multiplier relaxes), since a policy penalised before it can open the part learns to end its episodes
+    early (detaching costs less than the steps it would pay for). The defaults are the wrist load of ``hold_cmdp``:
+    the pull beyond what the grasp holds (RewardConfig.f_hold)."""
 
     measure: str = "load"  # one of MEASURES
     limit: float = 100.0  # in the measure's units (N, m/s, action units, m)
@@ -79,15 +82,16 @@ class Constraint:
     budget: float = 0.01  # allowed mean cost per step
     lr: float = 50.0  # lambda per unit of mean cost over budget, per epoch
     lambda_max: float = 20.0  # a bound that keeps the multiplier finite; a budget met leaves it below
+    success_gate: float = 0.0  # the epoch's success from which the cost counts (0: always)
 
     def __post_init__(self):
         if self.measure not in MEASURES or self.cost not in COSTS:
             raise DragMeshError(f"constraint: measure must be one of {', '.join(MEASURES)} and cost one of "
                                 f"{', '.join(COSTS)}, got {self.measure!r} and {self.cost!r}")
         if not (0 < self.limit < math.inf and 0 <= self.budget < math.inf and 0 < self.lr < math.inf
-                and 0 < self.lambda_max < math.inf):
-            raise DragMeshError(f"{self.measure} constraint: limit, lr and lambda_max must be finite and > 0 and "
-                                "budget finite and >= 0")
+                and 0 < self.lambda_max < math.inf and 0 <= self.success_gate <= 1):
+            raise DragMeshError(f"{self.measure} constraint: limit, lr and lambda_max must be finite and > 0, "
+                                "budget finite and >= 0 and success_gate in [0, 1]")
 
 
 @dataclass(frozen=True)

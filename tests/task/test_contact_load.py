@@ -87,20 +87,25 @@ def test_the_plausible_preset_trains_and_each_multiplier_takes_one_dual_ascent_s
     for i, x in enumerate(constraints):
         cost = float(m[f"cost_{x.measure}"])
         assert 0 <= cost <= 1 and float(m[f"lambda_{x.measure}"]) == float(ts.multipliers[i])
-        assert float(ts.multipliers[i]) == pytest.approx(min(max(x.lr * (cost - x.budget), 0.0), x.lambda_max),
+        counted = cost if float(m["success"]) >= x.success_gate else 0.0  # a tiny run's first epoch opens nothing
+        assert float(ts.multipliers[i]) == pytest.approx(min(max(x.lr * (counted - x.budget), 0.0), x.lambda_max),
                                                          abs=1e-5)
 
 
 def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps_it_in_bounds():
     c = Constraint(budget=0.01, lr=50.0, lambda_max=20.0)
-    assert float(multiplier_update(c, 1.0, 0.03)) == pytest.approx(2.0)  # 1 + 50 (0.03 - 0.01)
-    assert float(multiplier_update(c, 1.0, 0.0)) == pytest.approx(0.5)  # relaxes once the pull is under budget
-    assert float(multiplier_update(c, 0.1, 0.0)) == 0.0 and float(multiplier_update(c, 19.0, 1.0)) == 20.0
+    assert float(multiplier_update(c, 1.0, 0.03, 0.0)) == pytest.approx(2.0)  # 1 + 50 (0.03 - 0.01)
+    assert float(multiplier_update(c, 1.0, 0.0, 0.0)) == pytest.approx(0.5)  # relaxes once the pull is under budget
+    assert float(multiplier_update(c, 0.1, 0.0, 0.0)) == 0.0 and float(multiplier_update(c, 19.0, 1.0, 0.0)) == 20.0
+    gated = dataclasses.replace(c, success_gate=0.5)  # binds only a policy that opens the part in half its episodes
+    assert float(multiplier_update(gated, 1.0, 0.03, 0.4)) == pytest.approx(0.5)
+    assert float(multiplier_update(gated, 1.0, 0.03, 0.5)) == pytest.approx(2.0)
     cost = lambda x, cfg=c: float(constraint_cost(cfg, jnp.float32(x)))  # noqa: E731
     assert cost(0.5 * c.limit) == 0.0 and cost(c.limit) == 0.0 and cost(1.5 * c.limit) == pytest.approx(0.5)
     rate = Constraint("palm_speed", 0.25, "rate")
     assert cost(0.25, rate) == 0.0 and cost(0.26, rate) == 1.0 and cost(9.0, rate) == 1.0
-    for bad in ({"budget": -0.1}, {"measure": "speed"}, {"cost": "square"}, {"lambda_max": float("inf")}):
+    for bad in ({"budget": -0.1}, {"measure": "speed"}, {"cost": "square"}, {"lambda_max": float("inf")},
+                {"success_gate": 1.5}):
         with pytest.raises(DragMeshError, match="constraint"):
             Constraint(**bad)
 
