@@ -14,7 +14,9 @@ class RunningStats:
 
     @classmethod
     def create(cls, size: int) -> RunningStats:
-        return cls(jnp.zeros(size), jnp.ones(size), jnp.asarray(1e-4))
+        # typed, not weak: a restored checkpoint's statistics then match a fresh run's, and resuming in the same
+        # process reuses the compiled epoch
+        return cls(jnp.zeros(size, jnp.float32), jnp.ones(size, jnp.float32), jnp.asarray(1e-4, jnp.float32))
 
     def update(self, x: jnp.ndarray) -> RunningStats:
         """Merge a batch (..., size) into the statistics."""

@@ -15,6 +15,8 @@ import shutil
 from pathlib import Path
 
 import jax
+import jax.numpy as jnp
+import numpy as np
 import orbax.checkpoint as ocp
 
 from dragmesh2_jax.errors import DragMeshError
@@ -108,4 +110,11 @@ def load_checkpoint(template: TrainState, path: str | Path, keep_env: bool = Fal
                             f"({first[:200]})") from None
     finally:
         ck.close()
-    return ts.replace(env_state=env)
+    return _uncommitted(ts.replace(env_state=env))
+
+
+def _uncommitted(tree):
+    """``tree``'s arrays as a fresh run's are: Orbax restores them committed to a device, and a jitted program
+    called with committed arrays where it was called with uncommitted ones compiles again (a resume in the same
+    process, a notebook, reproduce)."""
+    return jax.tree.map(lambda x: jnp.asarray(np.asarray(x)) if isinstance(x, jax.Array) else x, tree)
