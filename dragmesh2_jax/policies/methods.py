@@ -36,9 +36,9 @@ RECIPE_EPOCHS = 300  # twice the paper's budget: where it holds the validation d
 #: ``hold_plausible``'s bounds on how the part is opened (issue 33): the palm no faster than PALM_SPEED_LIMIT (the
 #: expert's palm peaks at 0.09-0.19 m/s on every object, RESULTS.md §7), the wrist's pull within what the grasp holds
 #: (RewardConfig.f_hold) and a saturated active DoF in at most SATURATION_BUDGET of the steps; each a rate (the fraction
-#: of steps past its limit) whose budget dual ascent meets, binding once the policy opens the part in PLAUSIBLE_GATE of
-#: its episodes (from the start, the multipliers of 80 that a random policy's pace drives them to teach it to detach
-#: at once: RESULTS.md §3).
+#: of steps past its limit) whose budget dual ascent meets, its multiplier moving in the epochs where the policy opens
+#: the part in PLAUSIBLE_GATE of its episodes (from the start, the multipliers of 80 that a random policy's pace drives
+#: them to teach it to detach at once: RESULTS.md §3).
 PALM_SPEED_LIMIT = 0.25  # m/s
 SATURATION_BUDGET = 0.2
 PLAUSIBLE_GATE = 0.5

@@ -203,10 +203,10 @@ def aram_update(cfg: AramConfig, lam, metrics: dict):
 
 def multiplier_update(cfg: Constraint, lam, mean_cost, success):
     """A constraint's multiplier once per epoch, by dual ascent on the epoch's mean cost per step:
-    lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max), J_c counted as 0 in an epoch whose success is below
-    the constraint's gate."""
-    cost = jnp.where(success >= cfg.success_gate, mean_cost, 0.0)
-    return jnp.clip(lam + cfg.lr * (cost - cfg.budget), 0.0, cfg.lambda_max)
+    lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max), held in an epoch whose success is below the
+    constraint's gate."""
+    moved = jnp.clip(lam + cfg.lr * (mean_cost - cfg.budget), 0.0, cfg.lambda_max)
+    return jnp.where(success >= cfg.success_gate, moved, lam)
 
 
 def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainState, dict]:

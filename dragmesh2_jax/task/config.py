@@ -71,10 +71,10 @@ class Constraint:
     not a fixed penalty. Its Lagrange multiplier lambda weighs -lambda c_t in r_t; it starts at 0 and moves once per
     epoch by dual ascent on the epoch's mean cost J_c: lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max). The
     penalty grows only while the policy breaks the budget and relaxes once it keeps it. With a ``success_gate`` the
-    constraint binds only a policy that solves the task: in an epoch whose success is below the gate, J_c counts as
-    0 (the multiplier relaxes), since a policy penalised before it can open the part learns to end its episodes
-    early (detaching costs less than the steps it would pay for). The defaults are the wrist load of ``hold_cmdp``:
-    the pull beyond what the grasp holds (RewardConfig.f_hold)."""
+    multiplier moves only in epochs whose success reaches the gate and holds in the others: a policy penalised
+    before it can open the part learns to end its episodes early (detaching costs less than the steps it would pay
+    for), and one whose multiplier relaxed whenever its training success dipped went back to saturating. The defaults
+    are the wrist load of ``hold_cmdp``: the pull beyond what the grasp holds (RewardConfig.f_hold)."""
 
     measure: str = "load"  # one of MEASURES
     limit: float = 100.0  # in the measure's units (N, m/s, action units, m)
