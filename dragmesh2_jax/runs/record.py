@@ -20,10 +20,13 @@ def config_to_dict(config) -> dict:
 
 
 def config_from_dict(cls: type, data: Any, where: str = "run record"):
-    """The frozen dataclass ``cls`` from its recorded dict; fields missing from the record keep their defaults,
-    unknown fields, values of the wrong kind and values the config rejects are one error line."""
+    """The frozen dataclass ``cls`` from its recorded dict; fields missing from the record keep their defaults, a
+    record of an earlier version is brought up to date by ``cls.upgrade`` where the class has one, unknown fields,
+    values of the wrong kind and values the config rejects are one error line."""
     if not isinstance(data, dict):
         raise DragMeshError(f"{where}: {cls.__name__} must be an object, got {type(data).__name__}")
+    if hasattr(cls, "upgrade"):  # a record written before a field was renamed or retired
+        data = cls.upgrade(dict(data))
     hints = typing.get_type_hints(cls)
     names = {f.name for f in dataclasses.fields(cls) if f.init}
     unknown = set(data) - names

@@ -121,6 +121,16 @@ class RewardConfig:
     aram: AramConfig | None = None  # diagnostic fine-tunes (paper App. B.5): off in the main recipe
     reconfig: ReconfigConfig | None = None
 
+    @staticmethod
+    def upgrade(data: dict) -> dict:
+        """A record from before ``constraints``: its single ``load_constraint`` (f_limit, budget, lr, lambda_max) is
+        the load constraint with an excess cost."""
+        old = data.pop("load_constraint", None)
+        if isinstance(old, dict):
+            data["constraints"] = [{"measure": "load", "limit": old.get("f_limit", Constraint.limit), "cost": "excess",
+                                    **{k: v for k, v in old.items() if k != "f_limit"}}]
+        return data
+
     def __post_init__(self):
         measures = [c.measure for c in self.constraints]
         if len(set(measures)) != len(measures):

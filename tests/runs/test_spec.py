@@ -37,6 +37,15 @@ def test_configs_round_trip_through_json():
         assert back == config  # tuples, optional and nested configs included
     with pytest.raises(DragMeshError, match="unknown TaskConfig fields"):
         config_from_dict(TaskConfig, {"alpha": 0.05, "not_a_field": 1})
+    plausible = TaskConfig(reward=RewardConfig(constraints=get_method("hold_plausible").constraints))
+    assert config_from_dict(TaskConfig, json.loads(json.dumps(config_to_dict(plausible)))) == plausible
+
+
+def test_a_record_from_before_the_constraints_reads_its_single_load_constraint():
+    """Records written with ``load_constraint`` (null, or hold_cmdp's) read as the load constraint it was."""
+    assert config_from_dict(RewardConfig, {"w_task": 250.0, "load_constraint": None}) == RewardConfig()
+    old = {"load_constraint": {"f_limit": 100.0, "budget": 0.01, "lr": 50.0, "lambda_max": 20.0}}
+    assert config_from_dict(RewardConfig, old).constraints == get_method("hold_cmdp").constraints
 
 
 def test_non_default_task_and_scene_settings_are_what_evaluation_and_finetunes_use(tmp_path):
