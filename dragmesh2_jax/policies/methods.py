@@ -36,14 +36,10 @@ RECIPE_EPOCHS = 300  # twice the paper's budget: where it holds the validation d
 #: ``hold_plausible``'s bounds on how the part is opened (issue 33): the palm no faster than PALM_SPEED_LIMIT (the
 #: expert's palm peaks at 0.09-0.19 m/s on every object, RESULTS.md §7), the wrist's pull within what the grasp holds
 #: (RewardConfig.f_hold) and a saturated active DoF in at most SATURATION_BUDGET of the steps; each a rate (the fraction
-#: of steps past its limit) whose budget dual ascent meets, its multiplier moving in the epochs where the policy opens
-#: the part in PLAUSIBLE_GATE of its episodes (from the start, the multipliers of 80 that a random policy's pace drives
-#: them to teach it to detach at once: RESULTS.md §3).
+#: of steps past its limit) whose budget dual ascent meets, in the normalised Lagrangian (``config.LAGRANGIANS``).
 PALM_SPEED_LIMIT = 0.25  # m/s
 SATURATION_BUDGET = 0.2
-PLAUSIBLE_GATE = 0.5
-PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=5.0, lambda_max=20.0,
-                             success_gate=PLAUSIBLE_GATE)
+PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=5.0, lambda_max=20.0)
                   for measure, limit, budget in (("palm_speed", PALM_SPEED_LIMIT, 0.02),
                                                  ("load", RewardConfig.f_hold, 0.02),
                                                  ("saturation", CLIP_LEVEL, SATURATION_BUDGET)))
@@ -61,6 +57,7 @@ class Method:
     reset_noise: bool = False  # train from perturbed expert grasps (TaskConfig.reset_noise)
     w_load: float = 0.0  # the load-budget reward (RewardConfig.w_load)
     constraints: tuple[Constraint, ...] = ()  # CMDP constraints (RewardConfig.constraints)
+    lagrangian: str = "plain"  # how they enter the reward (RewardConfig.lagrangian)
     network: NetworkConfig = field(default_factory=NetworkConfig)  # the actor-critic's sizes
     epochs: int | None = None  # its training budget (None: the paper's, PPOConfig.epochs)
     checkpoint: str = "best_robust"  # the checkpoint that stands for its runs: best_robust (paper) | final
@@ -109,7 +106,8 @@ METHODS = {m.name: m for m in (
            dampings=RECIPE_DAMPINGS),
     Method("hold_plausible", "gla", True, "the recipe (hold_blind) held within a person's reach: the palm's pace, "
            "the wrist load and saturation as CMDP constraints, each met by dual ascent", critic="privileged",
-           damping_range=(1.0, 8.0), reset_noise=True, constraints=PLAUSIBLE, epochs=RECIPE_EPOCHS,
+           damping_range=(1.0, 8.0), reset_noise=True, constraints=PLAUSIBLE, lagrangian="normalized",
+           epochs=RECIPE_EPOCHS,
            checkpoint="final", dampings=RECIPE_DAMPINGS),
     Method("hold_blind_cmdp", "gla", True, "PICA-Hold without force or touch sensing and with the wrist load as a "
            "CMDP constraint (the load is seen by the critic and the cost, never by the policy)",
@@ -146,5 +144,6 @@ def task_overrides(method: Method) -> dict:
     if method.w_load:
         out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), w_load=method.w_load)
     if method.constraints:
-        out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), constraints=method.constraints)
+        out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), constraints=method.constraints,
+                                            lagrangian=method.lagrangian)
     return out

@@ -201,12 +201,10 @@ def aram_update(cfg: AramConfig, lam, metrics: dict):
     return jnp.where(ok, jnp.clip(lam + cfg.lr * (metrics["clip099"] - cfg.target), 0.0, cfg.lambda_max), lam)
 
 
-def multiplier_update(cfg: Constraint, lam, mean_cost, success):
+def multiplier_update(cfg: Constraint, lam, mean_cost):
     """A constraint's multiplier once per epoch, by dual ascent on the epoch's mean cost per step:
-    lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max), held in an epoch whose success is below the
-    constraint's gate."""
-    moved = jnp.clip(lam + cfg.lr * (mean_cost - cfg.budget), 0.0, cfg.lambda_max)
-    return jnp.where(success >= cfg.success_gate, moved, lam)
+    lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max)."""
+    return jnp.clip(lam + cfg.lr * (mean_cost - cfg.budget), 0.0, cfg.lambda_max)
 
 
 def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainState, dict]:
@@ -273,8 +271,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
     constraints = program.task.config.reward.constraints
     metrics |= {cost_metric(x): m[cost_metric(x)].mean() for x in constraints}
     if constraints:
-        ts = ts.replace(multipliers=jnp.stack([multiplier_update(x, ts.multipliers[i], metrics[cost_metric(x)],
-                                                                 metrics["success"])
+        ts = ts.replace(multipliers=jnp.stack([multiplier_update(x, ts.multipliers[i], metrics[cost_metric(x)])
                                                for i, x in enumerate(constraints)]))
         metrics |= {f"lambda_{x.measure}": ts.multipliers[i] for i, x in enumerate(constraints)}
     aram = program.task.config.reward.aram

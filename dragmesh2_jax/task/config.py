@@ -65,16 +65,22 @@ MEASURES = ("load", "palm_speed", "saturation", "penetration")
 COSTS = ("excess", "rate")
 
 
+#: How the constraints' penalty enters r_t. ``plain``: r_t - sum_i lambda_i c_i. ``normalized``: (r_t - sum_i lambda_i
+#: c_i - detach sum_i lambda_i (T - t)) / (1 + sum_i lambda_i), PPO-Lagrangian's normalisation, so the reward keeps the
+#: task's scale however large the multipliers grow, with a detached episode charged as past every limit for each
+#: step it had left: ending an episode never dodges the costs its remaining steps would pay (with the plain form a
+#: policy whose multipliers outgrew what it could yet meet learnt to detach at once: RESULTS.md §3).
+LAGRANGIANS = ("plain", "normalized")
+
+
 @dataclass(frozen=True)
 class Constraint:
     """Beyond the paper, in its CMDP framing (§3): a physical quantity as a constraint E[c_t] <= ``budget`` per step,
     not a fixed penalty. Its Lagrange multiplier lambda weighs -lambda c_t in r_t; it starts at 0 and moves once per
     epoch by dual ascent on the epoch's mean cost J_c: lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max). The
-    penalty grows only while the policy breaks the budget and relaxes once it keeps it. With a ``success_gate`` the
-    multiplier moves only in epochs whose success reaches the gate and holds in the others: a policy penalised
-    before it can open the part learns to end its episodes early (detaching costs less than the steps it would pay
-    for), and one whose multiplier relaxed whenever its training success dipped went back to saturating. The defaults
-    are the wrist load of ``hold_cmdp``: the pull beyond what the grasp holds (RewardConfig.f_hold)."""
+    penalty grows only while the policy breaks the budget and relaxes once it keeps it (``RewardConfig.lagrangian``
+    says how the penalty enters r_t). The defaults are the wrist load of ``hold_cmdp``: the pull beyond what the grasp
+    holds (RewardConfig.f_hold)."""
 
     measure: str = "load"  # one of MEASURES
     limit: float = 100.0  # in the measure's units (N, m/s, action units, m)
@@ -82,16 +88,15 @@ class Constraint:
     budget: float = 0.01  # allowed mean cost per step
     lr: float = 50.0  # lambda per unit of mean cost over budget, per epoch
     lambda_max: float = 20.0  # a bound that keeps the multiplier finite; a budget met leaves it below
-    success_gate: float = 0.0  # the epoch's success from which the cost counts (0: always)
 
     def __post_init__(self):
         if self.measure not in MEASURES or self.cost not in COSTS:
             raise DragMeshError(f"constraint: measure must be one of {', '.join(MEASURES)} and cost one of "
                                 f"{', '.join(COSTS)}, got {self.measure!r} and {self.cost!r}")
         if not (0 < self.limit < math.inf and 0 <= self.budget < math.inf and 0 < self.lr < math.inf
-                and 0 < self.lambda_max < math.inf and 0 <= self.success_gate <= 1):
-            raise DragMeshError(f"{self.measure} constraint: limit, lr and lambda_max must be finite and > 0, "
-                                "budget finite and >= 0 and success_gate in [0, 1]")
+                and 0 < self.lambda_max < math.inf):
+            raise DragMeshError(f"{self.measure} constraint: limit, lr and lambda_max must be finite and > 0 and "
+                                "budget finite and >= 0")
 
 
 @dataclass(frozen=True)
@@ -118,6 +123,7 @@ class RewardConfig:
     w_load: float = 0.0  # off in the paper's methods
     f_hold: float = 100.0  # N, wrist force the grasp holds (measured on the tuning door)
     constraints: tuple[Constraint, ...] = ()  # CMDP constraints, one per measure (none in the paper's methods)
+    lagrangian: str = "plain"  # how the constraints enter r_t: one of LAGRANGIANS
     aram: AramConfig | None = None  # diagnostic fine-tunes (paper App. B.5): off in the main recipe
     reconfig: ReconfigConfig | None = None
 
@@ -132,6 +138,8 @@ class RewardConfig:
         return data
 
     def __post_init__(self):
+        if self.lagrangian not in LAGRANGIANS:
+            raise DragMeshError(f"lagrangian must be one of {', '.join(LAGRANGIANS)}, got {self.lagrangian!r}")
         measures = [c.measure for c in self.constraints]
         if len(set(measures)) != len(measures):
             raise DragMeshError(f"one constraint per measure, got {', '.join(measures)}")

@@ -382,6 +382,8 @@ class PullTask:
                              ev.detach.astype(jnp.float32), k.force[:3])
         if c.reward.constraints:
             terms["constraints"] = -jnp.dot(p.multipliers, costs)
+            if c.reward.lagrangian == "normalized":  # the detached episode's remaining steps, each past every limit
+                terms["constraints"] -= ev.detach * p.multipliers.sum() * (c.episode_length - ev.step)
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         d_long, q_long = ring(info["d_long"], ev.d), ring(info["q_long"], ev.q)
         stall, cooldown = info["stall"], info["cooldown"]
@@ -393,7 +395,10 @@ class PullTask:
             prev_a = state.obs.history[-1, self.action_size:2 * self.action_size]
             terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, prev_a,
                                                          k.hand_qd, delta, K)
-        reward = jnp.where(finite, sum(terms.values()), 0.0).astype(jnp.float32)
+        reward = sum(terms.values())
+        if c.reward.constraints and c.reward.lagrangian == "normalized":
+            reward = reward / (1.0 + p.multipliers.sum())
+        reward = jnp.where(finite, reward, 0.0).astype(jnp.float32)
         return reward, {"d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
 
     def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray) -> State:

@@ -17,7 +17,7 @@ from dragmesh2_jax.ppo.train import epoch_jit, init_jit, multiplier_update
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import FORCE_SIZE
 from dragmesh2_jax.task.config import Constraint, RewardConfig
-from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, make_batched
+from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, Events, make_batched
 from dragmesh2_jax.task.rewards import constraint_cost, reward_terms
 from tests.conftest import tiny_program
 
@@ -70,6 +70,10 @@ def test_each_constraint_weighs_its_steps_cost_by_the_multiplier_the_trainer_bin
     assert all(np.allclose(paid.metrics[k], free.metrics[k]) for k in free.metrics if k.startswith("cost_"))
     np.testing.assert_allclose(paid.reward, free.reward - 2.0 * load - 3.0 - 5.0, rtol=1e-5, atol=1e-4)
     assert not any(k.startswith("cost_") for k in first_step(load_task(OBJ, None, backend="mujoco")).metrics)
+    # normalised: the same penalty over 1 + sum(lambda), the task's scale kept
+    task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(constraints=limits, lagrangian="normalized"))
+    normal = jax.device_get(jax.jit(lambda: first_step(task.bind(weighed.data)))())
+    np.testing.assert_allclose(normal.reward, paid.reward / 11.0, rtol=1e-5, atol=1e-5)
     with pytest.raises(DragMeshError, match="one constraint per measure"):
         RewardConfig(constraints=(Constraint("load"), Constraint("load", 50.0)))
 
@@ -87,25 +91,41 @@ def test_the_plausible_preset_trains_and_each_multiplier_takes_one_dual_ascent_s
     for i, x in enumerate(constraints):
         cost = float(m[f"cost_{x.measure}"])
         assert 0 <= cost <= 1 and float(m[f"lambda_{x.measure}"]) == float(ts.multipliers[i])
-        moved = min(max(x.lr * (cost - x.budget), 0.0), x.lambda_max)
-        assert float(ts.multipliers[i]) == pytest.approx(moved if float(m["success"]) >= x.success_gate else 0.0,
+        assert float(ts.multipliers[i]) == pytest.approx(min(max(x.lr * (cost - x.budget), 0.0), x.lambda_max),
                                                          abs=1e-5)
+
+
+def test_a_normalized_lagrangian_charges_a_detached_episode_every_step_it_had_left():
+    """With multipliers (2, 3) and no cost this step, a world that detaches at step t pays 5 (T - t) more than the
+    plain reward, all over 1 + 5; a step that does not end in detachment pays nothing more."""
+    limits = (Constraint("load", 1e6), Constraint("palm_speed", 1e6, "rate"))
+    task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(constraints=limits, lagrangian="normalized"))
+    task = task.bind(task.data.replace(params=task.data.params.replace(multipliers=jnp.asarray([2.0, 3.0]))))
+    plain = load_task(OBJ, None, backend="mujoco")
+    T, t = task.config.episode_length, 10
+
+    def reward(env, detach):
+        s = env.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
+        k = env.kinematics(s.physics)
+        ev = Events(d=jnp.float32(0.2), q=k.obj_q, success=jnp.bool_(False), detach=jnp.bool_(detach),
+                    terminated=jnp.bool_(detach), truncated=jnp.bool_(False), step=jnp.int32(t))
+        return env._reward(s, jnp.zeros(51), k, ev, jnp.bool_(True), jnp.zeros(2))[0]
+
+    for detach in (True, False):
+        charged, free = jax.device_get(jax.jit(lambda d=detach: (reward(task, d), reward(plain, d)))())
+        assert float(charged) == pytest.approx((float(free) - 5.0 * (T - t) * detach) / 6.0, rel=1e-5, abs=1e-5)
 
 
 def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps_it_in_bounds():
     c = Constraint(budget=0.01, lr=50.0, lambda_max=20.0)
-    assert float(multiplier_update(c, 1.0, 0.03, 0.0)) == pytest.approx(2.0)  # 1 + 50 (0.03 - 0.01)
-    assert float(multiplier_update(c, 1.0, 0.0, 0.0)) == pytest.approx(0.5)  # relaxes once the pull is under budget
-    assert float(multiplier_update(c, 0.1, 0.0, 0.0)) == 0.0 and float(multiplier_update(c, 19.0, 1.0, 0.0)) == 20.0
-    gated = dataclasses.replace(c, success_gate=0.5)  # binds only a policy that opens the part in half its episodes
-    assert float(multiplier_update(gated, 1.0, 0.03, 0.4)) == pytest.approx(1.0)  # held below the gate
-    assert float(multiplier_update(gated, 1.0, 0.03, 0.5)) == pytest.approx(2.0)
+    assert float(multiplier_update(c, 1.0, 0.03)) == pytest.approx(2.0)  # 1 + 50 (0.03 - 0.01)
+    assert float(multiplier_update(c, 1.0, 0.0)) == pytest.approx(0.5)  # relaxes once the pull is under budget
+    assert float(multiplier_update(c, 0.1, 0.0)) == 0.0 and float(multiplier_update(c, 19.0, 1.0)) == 20.0
     cost = lambda x, cfg=c: float(constraint_cost(cfg, jnp.float32(x)))  # noqa: E731
     assert cost(0.5 * c.limit) == 0.0 and cost(c.limit) == 0.0 and cost(1.5 * c.limit) == pytest.approx(0.5)
     rate = Constraint("palm_speed", 0.25, "rate")
     assert cost(0.25, rate) == 0.0 and cost(0.26, rate) == 1.0 and cost(9.0, rate) == 1.0
-    for bad in ({"budget": -0.1}, {"measure": "speed"}, {"cost": "square"}, {"lambda_max": float("inf")},
-                {"success_gate": 1.5}):
+    for bad in ({"budget": -0.1}, {"measure": "speed"}, {"cost": "square"}, {"lambda_max": float("inf")}):
         with pytest.raises(DragMeshError, match="constraint"):
             Constraint(**bad)
 
