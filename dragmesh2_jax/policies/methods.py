@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig
-from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
 #: Which checkpoint stands for a run: ``best_robust``, the paper's selection by robustness during training (App.
 #: B.3-B.4; ``final`` where the run has none), or ``final``, its last epoch's.
@@ -32,17 +31,6 @@ CHECKPOINT_RULES = ("best_robust", "final")
 #: The recipe's evaluation cells: its training range x1-x8 and x16 beyond it (out of its training distribution).
 RECIPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
 RECIPE_EPOCHS = 300  # twice the paper's budget: where it holds the validation doors at x1-x4 (RESULTS.md §3)
-
-#: ``hold_plausible``'s bounds on how the part is opened (issue 33): the palm no faster than PALM_SPEED_LIMIT (the
-#: expert's palm peaks at 0.09-0.19 m/s on every object, RESULTS.md §7), the wrist's pull within what the grasp holds
-#: (RewardConfig.f_hold) and a saturated active DoF in at most SATURATION_BUDGET of the steps; each a rate (the fraction
-#: of steps past its limit) whose budget dual ascent meets, in the normalised Lagrangian (``config.LAGRANGIANS``).
-PALM_SPEED_LIMIT = 0.25  # m/s
-SATURATION_BUDGET = 0.2
-PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=5.0, lambda_max=20.0)
-                  for measure, limit, budget in (("palm_speed", PALM_SPEED_LIMIT, 0.02),
-                                                 ("load", RewardConfig.f_hold, 0.02),
-                                                 ("saturation", CLIP_LEVEL, SATURATION_BUDGET)))
 
 
 @dataclass(frozen=True)
@@ -104,11 +92,6 @@ METHODS = {m.name: m for m in (
            "final checkpoint (best_robust's x1/x2/x4 saturates and keeps an early one: RESULTS.md §3)",
            critic="privileged", damping_range=(1.0, 8.0), reset_noise=True, epochs=RECIPE_EPOCHS, checkpoint="final",
            dampings=RECIPE_DAMPINGS),
-    Method("hold_plausible", "gla", True, "the recipe (hold_blind) held within a person's reach: the palm's pace, "
-           "the wrist load and saturation as CMDP constraints, each met by dual ascent", critic="privileged",
-           damping_range=(1.0, 8.0), reset_noise=True, constraints=PLAUSIBLE, lagrangian="normalized",
-           epochs=RECIPE_EPOCHS,
-           checkpoint="final", dampings=RECIPE_DAMPINGS),
     Method("hold_blind_cmdp", "gla", True, "PICA-Hold without force or touch sensing and with the wrist load as a "
            "CMDP constraint (the load is seen by the critic and the cost, never by the policy)",
            critic="privileged", damping_range=(1.0, 8.0), reset_noise=True, constraints=(Constraint(),)),

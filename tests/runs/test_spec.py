@@ -15,6 +15,7 @@ from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.policies.methods import RECOMMENDED, get_method
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.commands import load_run
@@ -37,7 +38,7 @@ def test_configs_round_trip_through_json():
         assert back == config  # tuples, optional and nested configs included
     with pytest.raises(DragMeshError, match="unknown TaskConfig fields"):
         config_from_dict(TaskConfig, {"alpha": 0.05, "not_a_field": 1})
-    plausible = TaskConfig(reward=RewardConfig(constraints=get_method("hold_plausible").constraints))
+    plausible = TaskConfig(**get_finetune("plausible").task_overrides(RewardConfig()))
     assert config_from_dict(TaskConfig, json.loads(json.dumps(config_to_dict(plausible)))) == plausible
 
 

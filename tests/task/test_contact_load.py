@@ -12,7 +12,8 @@ import pytest
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.policies.methods import get_method, task_overrides
+from dragmesh2_jax.policies.methods import RECOMMENDED, get_method, task_overrides
+from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit, multiplier_update
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import FORCE_SIZE
@@ -78,13 +79,15 @@ def test_each_constraint_weighs_its_steps_cost_by_the_multiplier_the_trainer_bin
         RewardConfig(constraints=(Constraint("load"), Constraint("load", 50.0)))
 
 
-def test_the_plausible_preset_trains_and_each_multiplier_takes_one_dual_ascent_step_per_epoch():
-    """hold_plausible (the policy never observes the load; the costs and the critic do): lambda_i = clip(0 + lr_i
-    (J_i - budget_i), 0, lambda_max_i) after the first epoch, J_i the epoch's mean cost per step; the saturation
-    rate is the epoch's clip099_active."""
-    program = tiny_program("hold_plausible", OBJ)
+def test_the_plausible_finetune_trains_the_recipe_and_each_multiplier_takes_one_dual_ascent_step_per_epoch():
+    """The recipe under the plausible fine-tune (the policy never observes the load; the costs and the critic do):
+    lambda_i = clip(0 + lr_i (J_i - budget_i), 0, lambda_max_i) after the first epoch, J_i the epoch's mean cost per
+    step; the saturation rate is the epoch's clip099_active."""
+    plausible = get_finetune("plausible")
+    program = tiny_program(RECOMMENDED, OBJ, task=plausible.task_overrides(RewardConfig()))
     constraints = program.task.config.reward.constraints
-    assert constraints == get_method("hold_plausible").constraints and not program.task.config.force_obs
+    assert constraints == plausible.constraints and program.task.config.reward.lagrangian == "normalized"
+    assert not program.task.config.force_obs
     ts, m = epoch_jit(program, program.task.data, init_jit(program, program.task.data, jax.random.PRNGKey(0)))
     assert int(ts.epoch) == 1 and np.isfinite(float(m["loss"])) and float(ts.aram_lambda) == 0.0
     assert float(m["cost_saturation"]) == pytest.approx(float(m["clip099_active"]), abs=1e-6)
