@@ -14,16 +14,17 @@ from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
 #: ``plausible``'s bounds on how the part is opened (issue 33): the palm no faster than PALM_SPEED_LIMIT (the expert's
 #: palm peaks at 0.09-0.19 m/s on every object, RESULTS.md §7), the wrist's pull within what the grasp holds
-#: (RewardConfig.f_hold) and a saturated active DoF in at most SATURATION_BUDGET of the steps; each a rate (the fraction
-#: of steps past its limit) whose budget dual ascent meets, in the normalised Lagrangian (``config.LAGRANGIANS``), its
-#: multiplier moving slowly enough for a policy that opens the part to learn to open it within them (from scratch, or
-#: moving 5x faster, the multipliers reached their cap before the policy could open it: RESULTS.md §3).
+#: (RewardConfig.f_hold) and a saturated wrist DoF in at most SATURATION_BUDGET of the steps (the fingers saturate to
+#: hold a grip, the expert's too: config.MEASURES); each a rate (the fraction of steps past its limit) whose budget
+#: dual ascent meets, in the normalised Lagrangian (``config.LAGRANGIANS``), its multiplier moving slowly enough for a
+#: policy that opens the part to learn to open it within them (from scratch, or moving 5x faster, the multipliers
+#: reached their cap before the policy could open it: RESULTS.md §3).
 PALM_SPEED_LIMIT = 0.25  # m/s
 SATURATION_BUDGET = 0.2
 PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=1.0, lambda_max=20.0)
                   for measure, limit, budget in (("palm_speed", PALM_SPEED_LIMIT, 0.02),
                                                  ("load", RewardConfig.f_hold, 0.02),
-                                                 ("saturation", CLIP_LEVEL, SATURATION_BUDGET)))
+                                                 ("wrist_saturation", CLIP_LEVEL, SATURATION_BUDGET)))
 
 
 @dataclass(frozen=True)

@@ -57,9 +57,10 @@ class ReconfigConfig:
 
 
 #: What a constraint bounds, per control step: the wrist's pull |F_wrist| (N), the palm's speed (m/s), the largest
-#: |a_i| over the DoFs that move (action units; above CLIP_LEVEL the step is saturated) and the deepest hand-object
-#: penetration (m).
-MEASURES = ("load", "palm_speed", "saturation", "penetration")
+#: |a_i| over the DoFs that move and over the wrist's six alone (action units; above CLIP_LEVEL the step is saturated:
+#: a grip pressed deeper than alpha needs saturated finger actions, so the expert's replay saturates an active DoF in
+#: every step and its wrist in few) and the deepest hand-object penetration (m).
+MEASURES = ("load", "palm_speed", "saturation", "wrist_saturation", "penetration")
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit).
 COSTS = ("excess", "rate")

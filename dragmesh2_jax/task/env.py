@@ -372,7 +372,8 @@ class PullTask:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
         return {"load": jnp.linalg.norm(k.force[:3]),
                 "palm_speed": jnp.linalg.norm(k.palm - info["palm"]) / self.config.control_dt,
-                "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)), "penetration": k.penetration}
+                "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
+                "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration}
 
     def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray, costs):
         """r_t (paper eq. totalreward, with the constraints' term, ARAM or Reconfig when configured) and the reward
