@@ -1,0 +1,64 @@
+"""The table of experiments/plausible_hold.sh: per method and damping, success and the physical figures (mean ± SE
+over seeds, every seed's value), from the evaluation files the runs keep, with the expert at its own pace beside them.
+
+    python experiments/plausible_table.py OUT [--mode det]      (OUT: the script's output folder)"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from dragmesh2_jax.baselines.tracking import tracking_controller
+from dragmesh2_jax.evaluation.evaluate import evaluate
+from dragmesh2_jax.evaluation.protocol import EvalProtocol
+from dragmesh2_jax.runs.build import load_task
+
+COLUMNS = (("success_rate", "success", "{:.2f}"), ("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"),
+           ("palm_speed_peak_m_s", "palm p95 [m/s]", "{:.2f}"), ("steps_mean", "steps", "{:.0f}"),
+           ("clip099_active", "clip099 active", "{:.2f}"), ("penetration_max_mm", "penetration [mm]", "{:.1f}"))
+
+
+def cell(values: list[float], fmt: str) -> str:
+    v = np.asarray(values, float)
+    se = v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0.0
+    return f"{fmt.format(v.mean())} ± {fmt.format(se)} ({', '.join(fmt.format(x) for x in v)})"
+
+
+def latest(folder: Path) -> dict:
+    """The run's evaluation of its final checkpoint (reproduce names it by its epoch) at x1-x16, 50 episodes."""
+    (path,) = sorted(folder.glob("evaluations/*__x1-2-4-8-16_det-stoch_n50_*.json"))[-1:]
+    return json.loads(path.read_text())
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out")
+    ap.add_argument("--mode", default="det")
+    a = ap.parse_args(argv)
+    out = Path(a.out)
+    rows = {"hold_blind (300 epochs)": sorted(out.glob("door/runs/*/hold_blind_s*")),
+            "hold_blind 150 + plausible 150": sorted(out.glob("plausible/s*"))}
+    lines = ["| method | damping | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
+             "|---|---|" + "---|" * len(COLUMNS)]
+    for name, folders in rows.items():
+        evals = [latest(f) for f in folders]
+        for d in (1.0, 2.0, 4.0, 8.0, 16.0):
+            cs = [next(c for c in e["cells"] if c["damping"] == d and c["mode"] == a.mode) for e in evals]
+            figures = " | ".join(cell([c[k] for c in cs], f) for k, _, f in COLUMNS)
+            lines.append(f"| {name} | x{d:g} | {figures} |")
+    obj = json.loads((rows["hold_blind (300 epochs)"][0] / "run.json").read_text())["object"]
+    task = load_task(obj, None, backend="mujoco")
+    protocol = EvalProtocol(dampings=(1.0, 2.0, 4.0, 8.0, 16.0), modes=("det",), episodes=50)
+    expert = evaluate(protocol.task(task), tracking_controller(task), protocol)
+    for c in expert["cells"]:
+        lines.append(f"| expert (its own pace) | x{c['damping']:g} | " +
+                     " | ".join(f.format(c[k]) for k, _, f in COLUMNS) + " |")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
