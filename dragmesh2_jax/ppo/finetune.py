@@ -18,7 +18,7 @@ from dragmesh2_jax.task.protocol import CLIP_LEVEL
 #: hold a grip, the expert's too: config.MEASURES); each a rate (the fraction of steps past its limit) whose budget
 #: dual ascent meets, in the normalised Lagrangian (``config.LAGRANGIANS``), its multiplier moving slowly enough for a
 #: policy that opens the part to learn to open it within them (from scratch, or moving 5x faster, the multipliers
-#: reached their cap before the policy could open it: RESULTS.md §3).
+#: reached their cap before the policy could open it: RESULTS.md §3b).
 PALM_SPEED_LIMIT = 0.25  # m/s
 SATURATION_BUDGET = 0.2
 PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=1.0, lambda_max=20.0)

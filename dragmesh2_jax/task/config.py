@@ -59,7 +59,7 @@ class ReconfigConfig:
 #: What a constraint bounds, per control step: the wrist's pull |F_wrist| (N), the palm's speed (m/s), the largest
 #: |a_i| over the DoFs that move and over the wrist's six alone (action units; above CLIP_LEVEL the step is saturated:
 #: a grip pressed deeper than alpha needs saturated finger actions, so the expert's replay saturates an active DoF in
-#: every step and its wrist in few) and the deepest hand-object penetration (m).
+#: every step: RESULTS.md §3b) and the deepest hand-object penetration (m).
 MEASURES = ("load", "palm_speed", "saturation", "wrist_saturation", "penetration")
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit).
@@ -70,7 +70,7 @@ COSTS = ("excess", "rate")
 #: c_i - detach sum_i lambda_i (T - t)) / (1 + sum_i lambda_i), PPO-Lagrangian's normalisation, so the reward keeps the
 #: task's scale however large the multipliers grow, with a detached episode charged as past every limit for each
 #: step it had left: ending an episode never dodges the costs its remaining steps would pay (with the plain form a
-#: policy whose multipliers outgrew what it could yet meet learnt to detach at once: RESULTS.md §3).
+#: policy whose multipliers outgrew what it could yet meet learnt to detach at once: RESULTS.md §3b).
 LAGRANGIANS = ("plain", "normalized")
 
 
