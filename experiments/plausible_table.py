@@ -40,10 +40,13 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     out = Path(a.out)
     rows = {"hold_blind (300 epochs)": sorted(out.glob("door/runs/*/hold_blind_s*")),
-            "hold_blind 150 + plausible 150": sorted(out.glob("plausible/s*"))}
+            "hold_blind 150 + plausible 150": sorted(out.glob("plausible/s*")),
+            "hold_blind 150 + plausible_cap100 150": sorted(out.glob("plausible_cap100/s*"))}
     lines = ["| method | damping | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
              "|---|---|" + "---|" * len(COLUMNS)]
     for name, folders in rows.items():
+        if not folders:  # a variant not run into OUT
+            continue
         evals = [latest(f) for f in folders]
         for d in (1.0, 2.0, 4.0, 8.0, 16.0):
             cs = [next(c for c in e["cells"] if c["damping"] == d and c["mode"] == a.mode) for e in evals]
