@@ -309,7 +309,7 @@ class PullTask:
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (facts §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
-            "stall": jnp.int32(0), "cooldown": jnp.int32(0), "palm": k.palm.astype(jnp.float32),
+            "stall": jnp.int32(0), "cooldown": jnp.int32(0),
         }
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k),
                   step=info["step"])
@@ -335,7 +335,7 @@ class PullTask:
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state.physics)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
-        return self._advance(state, ctrl, a)
+        return self._advance(state, ctrl, a, k0.palm)
 
     def step_target(self, state: State, target: jnp.ndarray) -> State:
         """One control step with the hand PD target given directly (the trajectory-tracking baseline); the
@@ -343,7 +343,7 @@ class PullTask:
         k0 = self.kinematics(state.physics)
         ctrl = jnp.clip(target.astype(jnp.float32), self.params.hand_lo, self.params.hand_hi)
         a = jnp.clip((ctrl - k0.hand_q) / self.config.alpha, -1.0, 1.0)
-        return self._advance(state, ctrl, a)
+        return self._advance(state, ctrl, a, k0.palm)
 
     # ----------------------------------------------------------------- the step: physics -> ... -> obs
     def _physics(self, state: State, ctrl: jnp.ndarray):
@@ -368,10 +368,10 @@ class PullTask:
         return Events(d=d, q=q, success=success, detach=detach, terminated=terminated,
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
-    def _measures(self, info: dict, k: Kinematics, a: jnp.ndarray) -> dict[str, jnp.ndarray]:
+    def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray) -> dict[str, jnp.ndarray]:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
         return {"load": jnp.linalg.norm(k.force[:3]),
-                "palm_speed": jnp.linalg.norm(k.palm - info["palm"]) / self.config.control_dt,
+                "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration}
 
@@ -402,12 +402,12 @@ class PullTask:
         reward = jnp.where(finite, reward, 0.0).astype(jnp.float32)
         return reward, {"d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
 
-    def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray) -> State:
+    def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray, palm_before: jnp.ndarray) -> State:
         c, info = self.config, state.info
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
-        measures = self._measures(info, k, a)
+        measures = self._measures(palm_before, k, a)
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
                              for x in c.reward.constraints], jnp.float32)
         reward, reward_state = self._reward(state, a, k, ev, finite, costs)
@@ -419,7 +419,7 @@ class PullTask:
         new_info = {**info, **reward_state, "step": ev.step, "armed": info["armed"] | (ev.d <= c.d_detach),
                     "q_prev": ev.q, "ctrl": ctrl, "d_ring": ring(info["d_ring"], ev.d),
                     "q_ring": ring(info["q_ring"], ev.q), "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)),
-                    "episode_return": ep_return, "palm": k.palm.astype(jnp.float32)}
+                    "episode_return": ep_return}
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(new_info),
                   privileged=self._privileged(new_info, k), step=ev.step)
         metrics = {
