@@ -16,6 +16,7 @@ import numpy as np
 from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.physics.mjx_backend import require_impl
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.ppo.train import TrainProgram, epoch_jit, epoch_runs, init_jit, init_runs, run_mesh, seed_keys
 from dragmesh2_jax.runs.build import load_task, mix_of, program_of
 from dragmesh2_jax.runs.spec import method_spec
@@ -82,7 +83,6 @@ def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
             **machine()}
 
 
-PAPER_EPOCHS = 150  # the paper's per-object budget: 150 epochs x 64 envs x 32 steps
 
 
 def bench_train(program: TrainProgram, epochs: int, runs: int = 1) -> dict:

@@ -36,7 +36,7 @@ from dragmesh2_jax.io import atomic_write_json, os_error_line
 from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
 from dragmesh2_jax.policies.methods import METHODS, RECIPE_DAMPINGS, RECOMMENDED
 from dragmesh2_jax.policies.networks import NetworkConfig
-from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
 from dragmesh2_jax.ppo.finetune import FINETUNES
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
 from dragmesh2_jax.reproduce import (
@@ -189,7 +189,7 @@ def _print_train_row(r: dict) -> None:
     _err(f"{r['method']} {r['backend']:7s} {r['object']} envs {r['num_envs']:5d} x {r['runs']} runs  "
          f"first epoch {r['first_epoch_s']:7.2f} s  {r['s_per_epoch']:.3f} s/epoch  "
          f"env {r['env_steps_per_s']:10.1f}/s  physics {r['physics_steps_per_s']:11.1f}/s  "
-         f"150 epochs ~{r['budget_s']:.0f} s")
+         f"{PAPER_EPOCHS} epochs ~{r['budget_s']:.0f} s")
 
 
 def _counts(text: str, what: str) -> list[int]:

@@ -58,7 +58,7 @@ from dragmesh2_jax.evaluation.evaluate import PHYSICAL, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import MODES, PAPER, PAPER_DAMPINGS, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text, folder_lock
 from dragmesh2_jax.policies.methods import CHECKPOINT_RULES, METHODS, RECOMMENDED
-from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
 from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
 from dragmesh2_jax.runs.build import load_task
@@ -68,7 +68,6 @@ from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.runs.spec import method_spec
 from dragmesh2_jax.trajectory.dataset import build_dataset
 
-PAPER_BASE_EPOCHS = 150  # paper Table 11
 MAIN_METHODS = ("state_only", "flat_history", "gru", "transformer", "pica")  # paper Table 2, learned rows
 ABLATION_METHODS = ("gla_only", "pica_flat", "pica")  # paper Table 3
 TRAIN_LENGTHS = (150, 200, 300, 500)  # paper Table 4 (epochs of the base policy)
@@ -194,7 +193,7 @@ class ReproduceConfig:
 
     objects: tuple[str, ...]
     seeds: tuple[int, ...] = (0, 1, 2)
-    epochs: int = PAPER_BASE_EPOCHS
+    epochs: int = PAPER_EPOCHS
     num_envs: int | None = None  # PPOConfig's (64)
     episodes: int | None = None  # per cell; None: the table's own (PAPER's 20, PROJECT_EPISODES for the project's)
     backend: str = "auto"
@@ -271,7 +270,7 @@ class ReproduceConfig:
 
     def scaled(self, paper_epochs: int) -> int:
         """The paper's epoch count at this budget (``paper_epochs`` at 150 base epochs)."""
-        return max(1, round(paper_epochs * self.epochs / PAPER_BASE_EPOCHS))
+        return max(1, round(paper_epochs * self.epochs / PAPER_EPOCHS))
 
 
 # ------------------------------------------------------------------------------------------- the plan
@@ -407,7 +406,7 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
         base = Run(obj, s, c.epochs, method="pica")
         steps += [base, Eval(obj, base, "final", seed=s)]
         if table in ("train-length", "ood"):
-            steps += staged(base, "continued", TRAIN_LENGTHS[1:], PAPER_BASE_EPOCHS, s)
+            steps += staged(base, "continued", TRAIN_LENGTHS[1:], PAPER_EPOCHS, s)
         if table == "ood":
             for ft in OOD_FINETUNES:
                 steps += staged(base, ft, (FINETUNE_EPOCHS,), 0, s)
@@ -415,7 +414,7 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
             both = Run(obj, s, c.epochs + c.scaled(FINETUNE_EPOCHS), parent=base, recipe="both")
             steps += [both, Eval(obj, both, "final", seed=s)]
             if table == "continued":
-                steps += staged(both, "continued", CONTINUED, PAPER_BASE_EPOCHS + FINETUNE_EPOCHS, s)
+                steps += staged(both, "continued", CONTINUED, PAPER_EPOCHS + FINETUNE_EPOCHS, s)
             else:
                 for recipe, k in DAMPING_RANGES:
                     steps += staged(both, recipe, (k,), 0, s)

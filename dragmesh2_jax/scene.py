@@ -5,7 +5,7 @@ and placed at ``object_pos``; the hand's virtual joints move the wrist in world 
 
 Choices (documented, all in :class:`SceneConfig`):
   * Only the target joint stays a DoF: passive (no actuator), viscous ``damping`` (10 N s/m or N m s/rad,
-    facts §2), armature 0.005, limits from the URDF (prismatic limits scaled). Every other movable joint
+    design §2), armature 0.005, limits from the URDF (prismatic limits scaled). Every other movable joint
     is locked at its closed (lower) position: it has no action channel and would only add DoFs and contacts.
   * Contacts: hand against object only (hand geoms contype=1/conaffinity=2, object 2/1); no finger
     self-collision, no part-part collisions. By default only target-part pieces within ``collision_radius``
@@ -53,17 +53,18 @@ HANDLE_SITE = "handle"
 #: in a picture (the hand is skin-coloured: assets/hand.py). No physics reads them.
 HANDLE_RGBA, PART_RGBA, BODY_RGBA = "0.95 0.55 0.15 1", "0.55 0.72 0.88 1", "0.78 0.78 0.76 1"
 OTHER_HANDLE_RGBA = "0.55 0.55 0.55 1"
-#: Physics steps from rest that settle a written start state (facts §4: the reference's 4 settle substeps).
+#: Physics steps from rest that settle a written start state: one control period (design §4 and §12: shorter than
+#: the reference's four).
 RESET_SETTLE_SUBSTEPS = 4
 
 
 @dataclass(frozen=True)
 class SceneConfig:
-    scale: float = 0.4  # object scale (facts §2)
-    object_pos: tuple[float, float, float] = (0.5, 0.0, 0.6)  # m, world (facts §2)
+    scale: float = 0.4  # object scale (design §2)
+    object_pos: tuple[float, float, float] = (0.5, 0.0, 0.6)  # m, world (design §2)
     timestep: float = 1.0 / 240.0  # s: the reference's 60 Hz control x 4 PhysX substeps
-    damping: float = 10.0  # nominal target-joint damping (facts §2)
-    armature: float = 0.005  # object DoF armature (facts §2)
+    damping: float = 10.0  # nominal target-joint damping (design §2)
+    armature: float = 0.005  # object DoF armature (design §2)
     link_areal_density: float = 5.0  # kg/m^2 (thin-shell mass of the target part)
     friction: float = 1.5  # object sliding friction
     collide: str = "target"  # "target" | "all"
@@ -142,7 +143,7 @@ class Scene:
     def settled_state(self, hand_q: np.ndarray, obj_q: float,
                       substeps: int = RESET_SETTLE_SUBSTEPS) -> mujoco.MjData:
         """The state a task's reset writes: hand pose ``hand_q`` (clipped to its limits) with PD target = that pose,
-        the target joint at ``obj_q``, then ``substeps`` physics steps from rest at nominal damping (facts §4)."""
+        the target joint at ``obj_q``, then ``substeps`` physics steps from rest at nominal damping (design §4)."""
         m, ids = self.model, self.ids
         d = mujoco.MjData(m)
         d.qpos[ids.hand_qpos] = np.clip(hand_q, ids.hand_range[:, 0], ids.hand_range[:, 1])

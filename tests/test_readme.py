@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from dragmesh2_jax import reproduce as reproduce_lib
-from dragmesh2_jax.bench import PAPER_EPOCHS
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from tests.conftest import ROOT, SHARED, installed_command, require_shared
 from tests.test_reproduce import FakeSteps
 

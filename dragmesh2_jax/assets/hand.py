@@ -1,7 +1,7 @@
 """The 51-DoF SMPL-X hand (paper §3.1): 6 virtual wrist DoFs + 15 finger bodies x 3 hinges.
 
 Geometry is a box palm and one capsule per phalanx, generated from the spec table below (numbers from the
-public DragMesh-2 reference hand, facts §11). Frames: the wrist body ``{side}_Wrist`` sits at the origin of
+public DragMesh-2 reference hand, design §11). Frames: the wrist body ``{side}_Wrist`` sits at the origin of
 the virtual-joint chain; in the hand frame the fingers point along -y and the palm faces -z (right hand).
 
 DoF order (= action order, fixed):
@@ -23,7 +23,7 @@ from scipy.spatial.transform import Rotation
 FINGERS = ("Index", "Middle", "Pinky", "Ring", "Thumb")
 NUM_DOFS = 51
 NUM_VIRTUAL = 6
-#: Palm-centre offset in the wrist frame (m): the contact point used for palm-to-handle distance (facts §2).
+#: Palm-centre offset in the wrist frame (m): the contact point used for palm-to-handle distance (design §2).
 PALM_OFFSET = (-0.003, -0.054, -0.004)
 
 
@@ -54,7 +54,7 @@ def _chain(finger: str, rows, ranges) -> tuple[PhalanxSpec, ...]:
     )
 
 
-#: The spec table: (body offset, capsule fromto, radius) per segment; reference hand, facts §11.
+#: The spec table: (body offset, capsule fromto, radius) per segment; reference hand, design §11.
 PHALANGES: tuple[PhalanxSpec, ...] = (
     *_chain("Index", [
         ((0.0196, -0.0999, -0.0118), (0.0006, -0.0064, 0.0004, 0.0024, -0.0256, 0.0018), 0.0091),
@@ -95,7 +95,7 @@ class DriveGains:
     """Position (PD) actuator of one DoF group: stiffness kp, damping kv, |force| limit, joint armature.
 
     Units: N/m, N s/m, N for slides; N m/rad, N m s/rad, N m for hinges; armature kg or kg m^2.
-    The reference's PhysX drives (facts §1: kp 1e5/5e3/8e3) are implicit and far stiffer than an explicit
+    The reference's PhysX drives (design §1: kp 1e5/5e3/8e3) are implicit and far stiffer than an explicit
     MuJoCo PD allows at dt = 1/240 s on 1-15 g phalanges; these values keep omega*dt < 0.7 per group
     with the armature listed, are near-critically damped (kv ~ 2 sqrt(kp I)), and track a 0.05 rad/m
     target step in well under one 1/60 s control period. ``tests/assets/test_hand.py`` checks stability.
@@ -115,7 +115,7 @@ class HandConfig:
     virtual: DriveGains = DriveGains(kp=3000.0, kv=80.0, force_limit=300.0, armature=0.1)
     wrist: DriveGains = DriveGains(kp=100.0, kv=2.5, force_limit=50.0, armature=0.01)
     finger: DriveGains = DriveGains(kp=30.0, kv=0.5, force_limit=1.0, armature=0.002)
-    virtual_range: tuple[tuple[float, float], ...] = ((-2.0, 2.0), (-2.0, 2.0), (0.0, 2.0))  # m (facts §1)
+    virtual_range: tuple[tuple[float, float], ...] = ((-2.0, 2.0), (-2.0, 2.0), (0.0, 2.0))  # m (design §1)
     wrist_range_deg: tuple[float, float] = (-180.0, 180.0)
     friction: float = 1.5  # sliding friction of hand geoms
     # Contact and finger joint-limit stiffness: solref time constant (s). MuJoCo's default 0.02 lets the light,
@@ -175,7 +175,7 @@ def dof_ranges(config: HandConfig = HandConfig()) -> np.ndarray:
 
 
 def active_dofs(config: HandConfig = HandConfig()) -> np.ndarray:
-    """(51,) bool: the DoFs that move. The 24 finger axes locked to +-0.1 deg (facts §11) take an action that
+    """(51,) bool: the DoFs that move. The 24 finger axes locked to +-0.1 deg (design §11) take an action that
     moves nothing; everything else (6 wrist + 21 finger DoFs) is active."""
     r = dof_ranges(config)
     return (r[:, 1] - r[:, 0]) > 2 * math.radians(max(abs(x) for x in _LOCK)) + 1e-9

@@ -3,7 +3,7 @@ drag phase becomes the hand PD target; the object state is never replayed, so th
 replayed hand motion drags it through contact. It is a controller of the evaluator (``controls="targets"``):
 the same cells and metric names as every policy. After the drag block it holds the last pose.
 
-``tracking_delta`` is the reference's ``delta_action`` mode of the same replay (facts §10): the drag sent through the
+``tracking_delta`` is the reference's ``delta_action`` mode of the same replay (design §10): the drag sent through the
 learned policies' action interface, a = clip((target - q) / alpha, -1, 1), so the PD target never leads the hand by
 more than alpha. It tells apart what the increment interface allows from what a policy learns to do with it."""
 

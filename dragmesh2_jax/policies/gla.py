@@ -1,5 +1,5 @@
 """Gated Linear Attention (Yang et al., ICML 2024) in JAX, as the fla ``GatedLinearAttention`` layer the
-reference uses (facts §6): hidden 128, 4 heads, expand_k 0.5 (key dim 16 per head), expand_v 1 (value dim 32
+reference uses (design §6): hidden 128, 4 heads, expand_k 0.5 (key dim 16 per head), expand_v 1 (value dim 32
 per head), low-rank gate (rank 16) with log-sigmoid / 16, output gate swish(g_proj x), per-head RMSNorm,
 no short convolution; run from a zero state over the whole token window.
 

@@ -1,6 +1,6 @@
 """How the networks' linear maps start: as PyTorch's ``nn.Linear`` does, which is what the reference's networks
-use (rl_games' "default" initialiser leaves PyTorch's in place, GLA's linears included; every bias zeroed; facts
-§6). PyTorch draws a kernel from U(-1/sqrt(fan_in), 1/sqrt(fan_in)) (kaiming_uniform with a = sqrt(5)): variance
+use (rl_games' "default" initialiser leaves PyTorch's in place, GLA's linears included; every bias zeroed;
+design §6). PyTorch draws a kernel from U(-1/sqrt(fan_in), 1/sqrt(fan_in)) (kaiming_uniform with a = sqrt(5)): variance
 1/(3 fan_in), a third of flax's default lecun_normal. With flax's default the initial action means are 2x (history
 encoders) to 7x (state-only MLP) larger, and PPO starts, and stays, at the action bounds (RESULTS.md §14)."""
 

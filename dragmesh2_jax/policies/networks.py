@@ -1,4 +1,4 @@
-"""Actor-critic networks (paper Appendix A.3, Table 8; facts §6).
+"""Actor-critic networks (paper Appendix A.3, Table 8; design §6).
 
 Two branches: the state s_t through an MLP [512, 512, 256] (ELU); the history block H_t (16 tokens of 102)
 through a temporal encoder to a 128-d contact-history feature z_hist, LayerNorm'd. The fused features give
@@ -37,7 +37,7 @@ CRITICS = ("shared", "privileged")
 
 @dataclass(frozen=True)
 class NetworkConfig:
-    """Sizes of the actor-critic (paper Table 8; facts §6). A method carries one (``Method.network``)."""
+    """Sizes of the actor-critic (paper Table 8; design §6). A method carries one (``Method.network``)."""
 
     state_sizes: tuple[int, ...] = (512, 512, 256)  # the state MLP
     hist_dim: int = 128  # z_hist

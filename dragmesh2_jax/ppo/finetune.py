@@ -1,4 +1,4 @@
-"""The paper's diagnostic recipes (App. B.5-B.6; the reference's v2d/v2e configs, facts §5 and §7) as presets:
+"""The paper's diagnostic recipes (App. B.5-B.6; the reference's v2d/v2e configs, design §5 and §7) as presets:
 each continues a trained run from one of its checkpoints for ``epochs`` more epochs with a changed reward or
 damping range. Epochs count on from the checkpoint's (as rl_games restores epoch_num), so the aux warm-up
 stays finished. A preset never forks the code: it is a set of TaskConfig overrides."""
@@ -9,6 +9,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.task.config import AramConfig, Constraint, ReconfigConfig, RewardConfig
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
@@ -62,10 +63,10 @@ FINETUNES = {f.name: f for f in (
     Finetune("damp_1_2.5", "damping range [1, 2.5] (paper Table 7)", damping_range=(1.0, 2.5)),
     Finetune("damp_2_4", "damping range [2, 4] (paper Table 7)", damping_range=(2.0, 4.0)),
     # beyond the paper (issue 33): the recipe's run held within a person's reach for as many epochs again
-    Finetune("plausible", "the palm's pace, the wrist load and saturation as CMDP constraints", epochs=150,
+    Finetune("plausible", "the palm's pace, the wrist load and saturation as CMDP constraints", epochs=PAPER_EPOCHS,
              constraints=PLAUSIBLE, lagrangian="normalized"),
     Finetune("plausible_cap100", "plausible with its multipliers capped at 100, not 20 (capped at 20, the costs were "
-             "still over budget and falling)", epochs=150, lagrangian="normalized",
+             "still over budget and falling)", epochs=PAPER_EPOCHS, lagrangian="normalized",
              constraints=tuple(dataclasses.replace(c, lambda_max=100.0) for c in PLAUSIBLE)),
 )}
 

@@ -2,7 +2,7 @@
 
 Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds - c_e H + w_aux L_aux, with the clipped surrogate, the
 clipped value loss in the normalised value space, rl_games' bounds loss on the action mean beyond +-1.1, and the
-auxiliary loss in z-scored target space (facts §6-§7). KL(old || new) is reported as rl_games computes it.
+auxiliary loss in z-scored target space (design §6-§7). KL(old || new) is reported as rl_games computes it.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ the same structure (``task.data``, an argument) or another seed reuses it.
 
 Python loops over epochs (``train`` with callbacks: logs, checkpoints and robustness checks are the caller's).
 Time-limit truncations bootstrap from V(final observation); terminations (success, detachment) do not. The
-reward's adaptive weights, ARAM's (facts §5, ``ts.aram_lambda``) and the constraints' Lagrange multipliers
+reward's adaptive weights, ARAM's (design §5, ``ts.aram_lambda``) and the constraints' Lagrange multipliers
 (``ts.multipliers``, dual ascent on each epoch's mean cost), are bound into the task's reward parameters for the
 epoch's rollout and moved once per epoch.
 """
@@ -43,7 +43,7 @@ from dragmesh2_jax.ppo.losses import Batch, compute_gae, compute_ppo_loss, gauss
 from dragmesh2_jax.task.config import AramConfig, Constraint
 from dragmesh2_jax.task.env import PullTask, TaskData
 from dragmesh2_jax.task.protocol import CLIP_LEVEL, Obs
-from dragmesh2_jax.task.rewards import cost_metric
+from dragmesh2_jax.task.rewards import TERM_PREFIX, cost_metric
 from dragmesh2_jax.task.wrappers import AutoReset
 
 RUN_AXIS = "runs"  # the mesh axis the run (seed) axis is sharded over
@@ -195,7 +195,7 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState):
 
 
 def aram_update(cfg: AramConfig, lam, metrics: dict):
-    """lambda_ARAM once per epoch (facts §5): when the epoch's success exceeds the gate,
+    """lambda_ARAM once per epoch (design §5): when the epoch's success exceeds the gate,
     lambda <- clip(lambda + lr (clip099 - target), 0, lambda_max)."""
     ok = (metrics["success"] > cfg.success_gate) & (metrics["episodes"] > 0)
     return jnp.where(ok, jnp.clip(lam + cfg.lr * (metrics["clip099"] - cfg.target), 0.0, cfg.lambda_max), lam)
@@ -270,6 +270,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
     }
     constraints = program.task.config.reward.constraints
     metrics |= {cost_metric(x): m[cost_metric(x)].mean() for x in constraints}
+    metrics |= {k: v.mean() for k, v in m.items() if k.startswith(TERM_PREFIX)}  # per step, before normalisation
     if constraints:
         ts = ts.replace(multipliers=jnp.stack([multiplier_update(x, ts.multipliers[i], metrics[cost_metric(x)])
                                                for i, x in enumerate(constraints)]))

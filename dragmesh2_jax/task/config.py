@@ -18,7 +18,7 @@ IMPLS = ("jax", "warp")
 
 @dataclass(frozen=True)
 class AramConfig:
-    """ARAM-lite (the reference's v2d fine-tunes, facts §5): an adaptive penalty on large actions that do not
+    """ARAM-lite (the reference's v2d fine-tunes, design §5): an adaptive penalty on large actions that do not
     move the joint. stall counts consecutive steps with a low response q_t - q_{t-K}; once stall >= ``stall_steps``
     while in contact (d < ``d_contact``) and ||a|| > ``action_norm``, r_aram = -lambda mean(a^2). lambda starts at
     0 and moves once per epoch by ``lr (clip099 - target)`` when the epoch's success exceeds ``success_gate``."""
@@ -41,7 +41,7 @@ class AramConfig:
 
 @dataclass(frozen=True)
 class ReconfigConfig:
-    """Reconfig (facts §5): a bonus for regaining contact and response after a stall, gated and with a
+    """Reconfig (design §5): a bonus for regaining contact and response after a stall, gated and with a
     cooldown: r = gate (w_contact max(0, d_{t-K} - d_t) + w_response max(0, dq_t - dq_{t-K})
     + w_slip max(0, max d_{t-2K..t-K} - max d_{t-K..t}))."""
 
@@ -149,7 +149,7 @@ class RewardConfig:
 @dataclass(frozen=True)
 class ResetNoise:
     """A seeded perturbation of the expert grasp each episode starts from (not in the paper, whose reset is
-    exact: facts §4). ``bank`` perturbed starts are drawn once from ``seed`` and settled on the host like the
+    exact: design §4). ``bank`` perturbed starts are drawn once from ``seed`` and settled on the host like the
     exact one; each reset picks one at random. Normal noise is truncated at 2 standard deviations, so every
     start is within 2 sigma of the expert grasp; the object joint only opens (it starts at its closed limit)."""
 
@@ -179,7 +179,7 @@ class TaskConfig:
     aux_window: int = 5  # K
     rho: float = RHO  # success threshold: q_done = q_min + rho (q_max - q_min) over the trajectory
     d_detach: float = 0.10  # m
-    settle_substeps: int = RESET_SETTLE_SUBSTEPS  # physics steps from rest after writing the start (facts §4)
+    settle_substeps: int = RESET_SETTLE_SUBSTEPS  # physics steps from rest after writing the start (design §4)
     damping_range: tuple[float, float] = (1.0, 2.0)  # x nominal, sampled per reset (training)
     damping_fixed: float | None = None  # evaluation: a fixed multiplier (x1, x2, x4, ...) instead
     friction_range: tuple[float, float] | None = None  # object friction scale; off by default

@@ -30,7 +30,7 @@ gives the same task over other data, as Playground's domain-randomisation wrappe
 function. A program written against ``task.bind(data)`` with ``data`` an argument compiles once for every object
 of the same structure (see ``ppo/train.py``).
 
-Success: q >= q_done = q_min + rho (q_max - q_min) over the trajectory (``TaskConfig.rho``; facts §4).
+Success: q >= q_done = q_min + rho (q_max - q_min) over the trajectory (``TaskConfig.rho``; design §4).
 Reset: each episode starts at the expert grasp (drag-start frame, settled), or, with ``TaskConfig.reset_noise``,
 at one of a bank of seeded perturbations of it (evaluation uses one by default, so a deterministic cell is a
 distribution, not one episode repeated).
@@ -56,7 +56,15 @@ from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
-from dragmesh2_jax.task.rewards import aram_penalty, constraint_cost, cost_metric, reconfig_bonus, reward_terms
+from dragmesh2_jax.task.rewards import (
+    TERM_PREFIX,
+    aram_penalty,
+    constraint_cost,
+    cost_metric,
+    reconfig_bonus,
+    reward_terms,
+    term_names,
+)
 from dragmesh2_jax.trajectory.schema import RHO, Trajectory
 
 STATE_SIZE = 120
@@ -307,14 +315,15 @@ class PullTask:
             "fixed_damping": fixed, "armed": d <= c.d_detach, "q_prev": k.obj_q.astype(jnp.float32), "ctrl": ctrl,
             "d_ring": jnp.full((K1,), d), "q_ring": jnp.full((K1,), k.obj_q, jnp.float32),
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
-            # reward-stage rings of 2K+1 and the ARAM / Reconfig state (facts §5)
+            # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
             "stall": jnp.int32(0), "cooldown": jnp.int32(0),
         }
         obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k),
                   step=info["step"])
         zero = jnp.float32(0.0)
-        metrics = {m: zero for m in METRICS} | {cost_metric(x): zero for x in c.reward.constraints}
+        metrics = ({m: zero for m in METRICS} | {cost_metric(x): zero for x in c.reward.constraints}
+                   | {TERM_PREFIX + t: zero for t in term_names(c.reward)})
         metrics["q"] = k.obj_q.astype(jnp.float32)
         return State(physics=ps, obs=obs, reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
                      truncated=jnp.bool_(False), final_obs=obs, metrics=metrics, info=info)
@@ -357,7 +366,7 @@ class PullTask:
         return ps, jax.tree.map(lambda x: jnp.where(finite, x, 0.0), k), finite
 
     def _events(self, info: dict, k: Kinematics, finite: jnp.ndarray) -> Events:
-        """Success, detachment (once armed: paper App. A, facts §4), the time limit."""
+        """Success, detachment (once armed: paper App. A, design §4), the time limit."""
         c, p = self.config, self.params
         d = jnp.linalg.norm(k.handle_pos - k.palm)
         q = k.obj_q.astype(jnp.float32)
@@ -376,8 +385,9 @@ class PullTask:
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration}
 
     def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray, costs):
-        """r_t (paper eq. totalreward, with the constraints' term, ARAM or Reconfig when configured) and the reward
-        stage's new state. ``costs``: each constraint's c_t, in the config's order."""
+        """r_t (paper eq. totalreward, with the constraints' term, ARAM or Reconfig when configured), its terms
+        (``rewards.term_names``, zero in a non-finite world) and the reward stage's new state. ``costs``: each
+        constraint's c_t, in the config's order."""
         c, p, info = self.config, self.params, state.info
         terms = reward_terms(c.reward, a, ev.d, ev.q - info["q_prev"], ev.success.astype(jnp.float32),
                              ev.detach.astype(jnp.float32), k.force[:3])
@@ -400,7 +410,8 @@ class PullTask:
         if c.reward.constraints and c.reward.lagrangian == "normalized":
             reward = reward / (1.0 + p.multipliers.sum())
         reward = jnp.where(finite, reward, 0.0).astype(jnp.float32)
-        return reward, {"d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
+        terms = {t: jnp.where(finite, v, 0.0).astype(jnp.float32) for t, v in terms.items()}
+        return reward, terms, {"d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
 
     def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray, palm_before: jnp.ndarray) -> State:
         c, info = self.config, state.info
@@ -410,7 +421,7 @@ class PullTask:
         measures = self._measures(palm_before, k, a)
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
                              for x in c.reward.constraints], jnp.float32)
-        reward, reward_state = self._reward(state, a, k, ev, finite, costs)
+        reward, terms, reward_state = self._reward(state, a, k, ev, finite, costs)
         # observation
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         e = (ctrl - k.hand_q).astype(jnp.float32)
@@ -430,7 +441,8 @@ class PullTask:
             "nonfinite": (~finite).astype(jnp.float32), "overflow": overflow.astype(jnp.float32),
             "episode_return": ep_return,
             "episode_length": ev.step.astype(jnp.float32), "q": ev.q,
-        } | {cost_metric(x): costs[i] for i, x in enumerate(c.reward.constraints)}
+        } | {cost_metric(x): costs[i] for i, x in enumerate(c.reward.constraints)} | {
+            TERM_PREFIX + t: v for t, v in terms.items()}
         return State(physics=ps, obs=obs, reward=reward, done=ev.terminated | ev.truncated, terminated=ev.terminated,
                      truncated=ev.truncated, final_obs=obs, metrics=metrics, info=new_info)
 

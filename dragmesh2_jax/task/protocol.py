@@ -12,7 +12,8 @@ A step reports, per world:
     bootstrap), ``truncated`` (time limit: bootstrap from the value of ``final_obs``);
   * ``obs``: the fields of :class:`Obs` (each policy reads what it may: see ``task/env.py`` for the layout);
   * ``metrics``: one scalar per name of :data:`METRICS`, belonging to the step just taken (and
-    ``cost_<measure>`` for each constraint of the reward, ``rewards.cost_metric``).
+    ``cost_<measure>`` for each constraint of the reward, ``rewards.cost_metric``, and ``reward/<term>`` for each
+    term of the reward, ``rewards.term_names``).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-#: A step whose largest |a_i| exceeds this counts as saturated (clip099, facts §8).
+#: A step whose largest |a_i| exceeds this counts as saturated (clip099, design §8).
 CLIP_LEVEL = 0.99
 #: Metric names of every step (one scalar per world, for the step just taken).
 METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "active_abs_max", "action_l2", "palm_dist",

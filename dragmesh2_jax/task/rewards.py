@@ -12,6 +12,18 @@ def load_excess(wrist_force: jnp.ndarray, limit: float) -> jnp.ndarray:
     return jnp.maximum(jnp.linalg.norm(wrist_force) - limit, 0.0) / limit
 
 
+#: The terms every reward has (``reward_terms``); the constraints', ARAM's and Reconfig's join when configured.
+BASE_TERMS = ("load", "task", "dist", "act", "time", "detach", "success", "bound", "contact")
+#: A reward term's name among a step's metrics and in the training log.
+TERM_PREFIX = "reward/"
+
+
+def term_names(cfg: RewardConfig) -> tuple[str, ...]:
+    """The names of r_t's terms under ``cfg``, in the order they are summed."""
+    return (BASE_TERMS + (("constraints",) if cfg.constraints else ()) + (("aram",) if cfg.aram is not None else ())
+            + (("reconfig",) if cfg.reconfig is not None else ()))
+
+
 def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp.ndarray, success: jnp.ndarray,
                  detach: jnp.ndarray, wrist_force: jnp.ndarray) -> dict[str, jnp.ndarray]:
     """Every term of r_t. ``action`` (51,) clipped to [-1, 1]; ``d`` palm-handle distance (m); ``dq`` target-joint
@@ -43,7 +55,7 @@ def constraint_cost(cfg: Constraint, x: jnp.ndarray) -> jnp.ndarray:
 
 
 def aram_penalty(cfg: AramConfig, lam, stall, d, action, q_resp, delta, revolute):
-    """ARAM-lite (facts §5): (r_aram, new stall count). ``q_resp`` = q_t - q_{t-K}; ``delta`` = q_goal - q_start."""
+    """ARAM-lite (design §5): (r_aram, new stall count). ``q_resp`` = q_t - q_{t-K}; ``delta`` = q_goal - q_start."""
     normalized = jnp.abs(q_resp) / jnp.maximum(delta, 1e-6) < cfg.frac
     raw = jnp.abs(q_resp) < cfg.raw_eps
     low = {"raw": raw, "normalized": normalized, "joint_aware": jnp.where(revolute, raw, normalized)}[cfg.response]
@@ -53,7 +65,7 @@ def aram_penalty(cfg: AramConfig, lam, stall, d, action, q_resp, delta, revolute
 
 
 def reconfig_bonus(cfg: ReconfigConfig, cooldown, d_ring, q_ring, action, prev_action, hand_qd, delta, K: int):
-    """Reconfig (facts §5): (r_reconfig, new cooldown). Rings hold the last 2K+1 values of d and q, newest last."""
+    """Reconfig (design §5): (r_reconfig, new cooldown). Rings hold the last 2K+1 values of d and q, newest last."""
     d, q_resp, prev_resp = d_ring[-1], q_ring[-1] - q_ring[-1 - K], q_ring[-1 - K] - q_ring[0]
     contact = jnp.maximum(0.0, d_ring[-1 - K] - d)
     response = jnp.maximum(0.0, q_resp - prev_resp)

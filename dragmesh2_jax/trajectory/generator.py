@@ -263,7 +263,7 @@ def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorPar
     achieved = float(traj.target_q[drag[0]: drag[-1] + 1].max() - q_start)
     opened = achieved >= params.min_open_fraction * extent
     q_done = traj.q_done
-    # q_done comes from all frames (facts §4); contact must pass it during the drag itself, so a part that
+    # q_done comes from all frames (design §4); contact must pass it during the drag itself, so a part that
     # only falls open after the release (gravity) does not count
     reached = bool(traj.target_q[drag[0]: drag[-1] + 1].max() >= q_done) and opened
     within = stats["hand_limit_excess"] <= params.limit_tolerance

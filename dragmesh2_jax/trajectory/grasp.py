@@ -1,4 +1,4 @@
-"""Grasp geometry from a handle frame (paper Appendix B, "Wrist and finger poses"; facts §9).
+"""Grasp geometry from a handle frame (paper Appendix B, "Wrist and finger poses"; design §9).
 
 Wrist orientation R_w: columns X = handle long axis, Y = outward normal, Z = X x Y, so the fingers (hand -y)
 point into the object and the palm (hand -z) faces the bar. The long axis sign picks which side of the bar
@@ -26,7 +26,7 @@ THUMB_ABD, THUMB_FLEX, THUMB_ROT, THUMB_PIP, THUMB_DIP = 36, 37, 38, 41, 44
 @dataclass(frozen=True)
 class GraspParams:
     """Palm placement relative to the handle (m): the palm sits ``palm_clearance`` + thickness/2 out along the
-    palm normal and ``normal_offset`` out along the handle normal (facts §9: 0.030 and 0.025 + 0.008)."""
+    palm normal and ``normal_offset`` out along the handle normal (design §9: 0.030 and 0.025 + 0.008)."""
 
     palm_clearance: float = 0.030
     normal_offset: float = 0.033
@@ -82,7 +82,7 @@ def open_pose() -> np.ndarray:
 
 
 def preshape_pose() -> np.ndarray:
-    """Slightly curled fingers, thumb opposed (facts §9 pre-shape)."""
+    """Slightly curled fingers, thumb opposed (design §9 pre-shape)."""
     q = np.zeros(45)
     q[list(MCP)], q[list(PIP)], q[list(DIP)] = 0.30, 0.20, 0.10
     q[THUMB_ABD], q[THUMB_FLEX], q[THUMB_ROT], q[THUMB_PIP], q[THUMB_DIP] = 0.15, 0.40, -0.20, -0.15, -0.20

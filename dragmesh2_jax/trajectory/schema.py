@@ -1,6 +1,6 @@
 """Trajectory files: the reference implementation's frame schema plus a header.
 
-A frame (facts §9): ``phase`` (approach|grasp|drag|release), ``step`` (index within the phase),
+A frame (design §9): ``phase`` (approach|grasp|drag|release), ``step`` (index within the phase),
 ``virtual_xyz`` (3, m), ``wrist_rpy`` (3, rad, intrinsic XYZ), ``finger_dofs`` (45, rad) -- together the
 measured 51-d hand q -- ``wrist_pos`` (3, m) and ``wrist_rot`` (4, quaternion xyzw) of the wrist body, and
 ``joint_positions`` (every movable object joint, m or rad, scaled world units). Our files may add
@@ -9,7 +9,7 @@ measured 51-d hand q -- ``wrist_pos`` (3, m) and ``wrist_rot`` (4, quaternion xy
 The project writes ``{"format": "dragmesh2-trajectory", "version": 1, "header": {...}, "frames": [...]}``;
 the reader also accepts the reference's bare list of frames.
 
-Task quantities derived from a trajectory (paper eq. done/progress; facts §4):
+Task quantities derived from a trajectory (paper eq. done/progress; design §4):
   target joint = argmax over joints of (max - min) over frames, q_min/q_max over frames,
   q_done = q_min + rho (q_max - q_min) with rho = 0.5, drag start = first "drag" frame,
   q_start = q at the drag start, q_goal = q_max.
@@ -30,7 +30,7 @@ from dragmesh2_jax.io import atomic_write_text
 
 FORMAT = "dragmesh2-trajectory"
 VERSION = 1
-RHO = 0.5  # the paper's success-threshold fraction (Table 7; facts §4)
+RHO = 0.5  # the paper's success-threshold fraction (Table 7; design §4)
 PHASES = ("approach", "grasp", "drag", "release")
 _VECTORS = {"virtual_xyz": 3, "wrist_rpy": 3, "finger_dofs": 45, "wrist_pos": 3, "wrist_rot": 4}
 
@@ -84,7 +84,7 @@ class Trajectory:
 
     @property
     def target_index(self) -> int:
-        """Index into ``joint_positions``: the header's, else the joint with the largest range (facts §2)."""
+        """Index into ``joint_positions``: the header's, else the joint with the largest range (design §2)."""
         if "target" in self.header and "joint_index" in self.header["target"]:
             return int(self.header["target"]["joint_index"])
         jp = self.joint_positions

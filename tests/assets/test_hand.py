@@ -32,7 +32,7 @@ def test_locked_axes_stay_joints_with_tiny_range():
     r = hand.dof_ranges()
     widths = np.degrees(r[6:, 1] - r[6:, 0])
     assert np.sum(np.isclose(widths, 0.2)) == 24  # 24 locked (+-0.1 deg), 21 free finger DoFs
-    assert r[2, 0] == 0.0  # virtual_z lower limit 0 (facts §1)
+    assert r[2, 0] == 0.0  # virtual_z lower limit 0 (design §1)
 
 
 def test_mass_matches_reference_hand():

@@ -134,7 +134,7 @@ def test_every_encoder_builds_and_runs(encoder):
 @pytest.mark.parametrize("encoder", ENCODERS)
 def test_linear_maps_start_as_the_references_pytorch_linears(encoder):
     """Every kernel is drawn as PyTorch's nn.Linear draws it, U(-1/sqrt(fan_in), 1/sqrt(fan_in)), every bias is
-    zero (the reference's networks, facts §6); so the initial action means of unit-variance inputs sit inside the
+    zero (the reference's networks, design §6); so the initial action means of unit-variance inputs sit inside the
     action bounds. flax's default (lecun_normal, 3x the variance) puts 7-17% of them beyond +-1."""
     net = ActorCritic(encoder=encoder)
     ks, kh = jax.random.split(jax.random.key(1))

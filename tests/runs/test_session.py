@@ -21,6 +21,7 @@ from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.runs.spec import finetune_spec
 from dragmesh2_jax.task.config import ReconfigConfig
+from dragmesh2_jax.task.rewards import BASE_TERMS, TERM_PREFIX
 from tests.conftest import require_package, tiny_spec
 
 #: The module's trained run is built once: keep the file on one xdist worker.
@@ -58,6 +59,8 @@ def test_the_log_keeps_every_metric_the_epoch_returns(trained_run):
     assert set(metrics) <= set(row) and {"epoch", "seconds", "env_steps"} <= set(row)
     header = (trained_run.path / "log.csv").read_text().splitlines()[0].split(",")
     assert set(header) == set(row)
+    # every term of the reward, each its own column (Playground's reward/<name>)
+    assert {TERM_PREFIX + t for t in BASE_TERMS} <= set(row) and len(BASE_TERMS) >= 8
 
 
 def tensorboard_scalars(folder) -> dict[str, list[int]]:
@@ -81,6 +84,7 @@ def test_tensorboard_scalars_beside_the_logs(trained_run):
     tags = tensorboard_scalars(trained_run.tensorboard)
     assert tags["train/reward"] == [1, 2, 3, 4] and tags["train/clip099"] == [1, 2, 3, 4]
     assert tags["robust/mean_success"] == [2, 4]
+    assert tags["train/reward/task"] == [1, 2, 3, 4]
 
 
 def test_every_finetune_preset_is_the_parents_run_with_the_recipes_task(trained_run):
@@ -98,6 +102,7 @@ def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
     start = int(load_run(parent)[1].epoch)
     assert parent.name == "best_robust" and [r["epoch"] for r in rows] == [start + 1, start + 2]
     assert all("aram_lambda" in r and 0.0 <= r["aram_lambda"] <= 1.0 for r in rows)
+    assert all({"reward/aram", "reward/reconfig"} <= set(r) and r["reward/reconfig"] >= 0.0 for r in rows)
     ft = RunDir(tmp_path / "ft")
     spec = ft.spec()
     assert spec.finetune == "both" and spec.task.reward.aram.stall_steps == 5 and spec.parent == str(parent.resolve())

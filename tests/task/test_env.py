@@ -12,6 +12,7 @@ from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import AUX_SIZE, STATE_SIZE, TOKEN_SIZE, PullTask, make_batched
 from dragmesh2_jax.task.protocol import METRICS, observation_spec
+from dragmesh2_jax.task.rewards import TERM_PREFIX, term_names
 from dragmesh2_jax.task.wrappers import AutoReset
 from dragmesh2_jax.trajectory.schema import read_trajectory
 
@@ -44,7 +45,10 @@ def test_reset_and_step_shapes_and_dtypes(drawer_task):
     assert s.obs.state.shape == (3, STATE_SIZE) and s.obs.history.shape == (3, 16, TOKEN_SIZE)
     s = jax.jit(step)(s, jnp.zeros((3, 51)))
     assert s.obs.state.dtype == jnp.float32 and s.reward.shape == (3,) and s.done.dtype == jnp.bool_
-    assert set(s.metrics) == set(METRICS)
+    terms = {TERM_PREFIX + t for t in term_names(drawer_task.config.reward)}
+    assert set(s.metrics) == set(METRICS) | terms
+    # every term of r_t is a metric of the step, and they sum to it
+    np.testing.assert_allclose(sum(s.metrics[t] for t in terms), s.reward, rtol=1e-5, atol=1e-6)
     # training damping is sampled per world from [1, 2]
     sc = np.asarray(s.info["scales"][randomize.DAMPING])
     assert np.all((sc >= 1) & (sc <= 2)) and len(set(sc.tolist())) == 3

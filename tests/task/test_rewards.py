@@ -1,4 +1,4 @@
-"""The fine-tunes' reward terms (facts §5): ARAM's stall gate and Reconfig's bonus and cooldown."""
+"""The fine-tunes' reward terms (design §5): ARAM's stall gate and Reconfig's bonus and cooldown."""
 
 import jax.numpy as jnp
 import numpy as np
