@@ -6,7 +6,6 @@ a video of the policy at each damping."""
 from __future__ import annotations
 
 import dataclasses
-import io
 import sys
 import time
 from pathlib import Path
@@ -18,7 +17,7 @@ from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import PHYSICAL, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
-from dragmesh2_jax.io import atomic_write_bytes, atomic_write_text
+from dragmesh2_jax.io import atomic_write_figure, atomic_write_text
 from dragmesh2_jax.policies.methods import get_method
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.progress import LogLines
@@ -111,6 +110,4 @@ def plot_success(result: dict, path: Path) -> None:
     ax.set_title(f"{result['method']} on {result['object_id']}")
     ax.legend()
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
-    atomic_write_bytes(path, buf.getvalue())
+    atomic_write_figure(path, fig, dpi=120)

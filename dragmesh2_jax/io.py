@@ -1,5 +1,5 @@
-"""Atomic file writes, folders that one writer at a time may change, operating-system faults as one line, and
-content hashing: nothing is ever left half-written."""
+"""Atomic file writes (bytes, text, JSON, figures), folders that one writer at a time may change, operating-system
+faults as one line, and content hashing: nothing is ever left half-written."""
 
 from __future__ import annotations
 
@@ -7,13 +7,14 @@ import contextlib
 import errno
 import fcntl
 import hashlib
+import io
 import json
 import os
 import sys
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from dragmesh2_jax.errors import DragMeshError, FolderBusy, NotWritable
 
@@ -49,6 +50,20 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
 
 def atomic_write_json(path: str | os.PathLike, obj: Any, indent: int | None = 2) -> Path:
     return atomic_write_text(path, json.dumps(obj, indent=indent) + "\n")
+
+
+class Drawable(Protocol):
+    """A figure that draws itself into a file: matplotlib's ``Figure``, named by what it does so that this module,
+    which every writer imports, does not load matplotlib."""
+
+    def savefig(self, fname: Any, **kwargs: Any) -> Any: ...
+
+
+def atomic_write_figure(path: str | os.PathLike, fig: Drawable, **savefig: Any) -> Path:
+    """``fig`` as a PNG at ``path`` (``savefig``: matplotlib's options, such as ``dpi``), written atomically."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", **savefig)
+    return atomic_write_bytes(path, buf.getvalue())
 
 
 def hash_files(paths: Iterable[str | os.PathLike], extra: str = "") -> str:

@@ -29,7 +29,8 @@ from scipy.spatial.transform import Rotation
 from dragmesh2_jax.assets import gripper as gripper_lib
 from dragmesh2_jax.assets import hand as hand_lib
 from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, hull_distance, link_pieces
-from dragmesh2_jax.assets.gapartnet import GAPartNetObject, HandleFrame
+from dragmesh2_jax.assets.gapartnet import GAPartNetObject
+from dragmesh2_jax.assets.target import HandleFrame
 from dragmesh2_jax.errors import DragMeshError
 
 #: Frame sensors (12 values) both backends read: palm centre, handle centre, handle x (long) and y (normal) axes.

@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.evaluation.rollout import frames, rollout
-from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.io import atomic_write_figure, atomic_write_json
 from dragmesh2_jax.runs.commands import load_run
 
 
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
         axes[0, j].legend(fontsize=7)
     fig.tight_layout()
     out = Path(a.out)
-    fig.savefig(out, dpi=120)
+    atomic_write_figure(out, fig, dpi=120)
     atomic_write_json(out.with_suffix(".json"), {"object": task.scene.obj.object_id, "dampings": dampings,
                                                  "runs": dict(zip(labels, a.runs, strict=True)), "curves": curves})
     print(json.dumps({k: [(r["damping"], r["steps"], r["success"], round(max(r["load_n"][:r["steps"]]), 1))

@@ -10,7 +10,8 @@ from PIL import Image
 
 from dragmesh2_jax import render
 from dragmesh2_jax.assets.procedural import default_object
-from dragmesh2_jax.cli import CONFIG_CLASSES, build_parser, config_changes
+from dragmesh2_jax.cli.flags import CONFIG_CLASSES, config_changes
+from dragmesh2_jax.cli.parser import build_parser
 from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.runs.build import program_of

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from dragmesh2_jax import reproduce as reproduce_lib
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
+from dragmesh2_jax.reproduce import executor
 from tests.conftest import ROOT, SHARED, installed_command, require_shared
 from tests.test_reproduce import FakeSteps
 
@@ -98,8 +98,8 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, displ
     (tmp_path / "shared").symlink_to(SHARED.resolve())  # ../shared beside the folder the commands run in
     monkeypatch.chdir(work)
     fake = FakeSteps()
-    monkeypatch.setattr(reproduce_lib, "_train", fake.train)
-    monkeypatch.setattr(reproduce_lib, "_evaluate", fake.evaluate)
+    monkeypatch.setattr(executor, "_train", fake.train)
+    monkeypatch.setattr(executor, "_evaluate", fake.evaluate)
     env = {**{k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}, "DISPLAY": display}
     printed = {}  # each command's (stdout, stderr), by its start in BUDGETS
     for command, (start, budget) in zip(readme_commands(), BUDGETS, strict=True):

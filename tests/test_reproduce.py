@@ -8,11 +8,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dragmesh2_jax import reproduce as reproduce_lib
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.methods import RECOMMENDED
-from dragmesh2_jax.reproduce import PAPER_CELLS, PAPER_OBJECTS, TABLES, Eval, ReproduceConfig, Run, plan, reproduce
+from dragmesh2_jax.reproduce import (
+    PAPER_CELLS,
+    PAPER_OBJECTS,
+    TABLES,
+    Eval,
+    ReproduceConfig,
+    Run,
+    executor,
+    plan,
+    reproduce,
+)
 from tests.conftest import installed_command
 
 TINY = ReproduceConfig(objects=(str(default_object()),), seeds=(0,), epochs=2, num_envs=2, episodes=2,
@@ -104,8 +113,8 @@ def test_the_scaling_plan_trains_every_size_for_one_budget_and_reads_it_along_th
 
 def test_the_scaling_sizes_are_nested_subsets_of_one_table1_mix(tmp_path):
     c = ReproduceConfig(objects=("a",), scaling=(1, 3))
-    one, _ = reproduce_lib._scaling_subset(c, tmp_path, 1)
-    three, trajectories = reproduce_lib._scaling_subset(c, tmp_path, 3)
+    one, _ = executor._scaling_subset(c, tmp_path, 1)
+    three, trajectories = executor._scaling_subset(c, tmp_path, 3)
     assert [Path(o).name for o in one] == ["drawer_cabinet_1000"]  # the Table 1 mix of one object: a drawer
     assert set(one) < set(three) and len(three) == len(trajectories) == 3
     assert {Path(o).name.rsplit("_", 1)[0] for o in three} == {"drawer_cabinet", "door_cabinet"}
@@ -139,8 +148,8 @@ class FakeSteps:
 
 def test_every_table_runs_its_plan_and_an_interrupted_reproduction_resumes(tmp_path, monkeypatch):
     fake = FakeSteps()
-    monkeypatch.setattr(reproduce_lib, "_train", fake.train)
-    monkeypatch.setattr(reproduce_lib, "_evaluate", fake.evaluate)
+    monkeypatch.setattr(executor, "_train", fake.train)
+    monkeypatch.setattr(executor, "_evaluate", fake.evaluate)
     out = tmp_path / "rep"
     done: list = []
 
@@ -228,8 +237,8 @@ def test_tables_only_reads_the_plan_the_reproduction_recorded(tmp_path, monkeypa
     """``--tables-only`` without the run's other flags writes each table by the plan recorded when it ran, not by
     the defaults: the rows and seeds of the run stay in the table."""
     fake = FakeSteps()
-    monkeypatch.setattr(reproduce_lib, "_train", fake.train)
-    monkeypatch.setattr(reproduce_lib, "_evaluate", fake.evaluate)
+    monkeypatch.setattr(executor, "_train", fake.train)
+    monkeypatch.setattr(executor, "_evaluate", fake.evaluate)
     c = dataclasses.replace(TINY, methods=("tracking", "state_only", "pica"))
     reproduce(["main"], c, tmp_path, progress=False)
     written = json.loads((tmp_path / "main.json").read_text())["results"]

@@ -1,5 +1,5 @@
 """The package's shape: imports follow the data flow (no import circles, none up the layers) and stand at the top
-of each module, where a reader sees the real graph."""
+of each module, where a reader sees the real graph; no module is longer than a reader can hold."""
 
 import ast
 import os
@@ -27,14 +27,18 @@ FLOORS = (
 FLOOR = {room: i for i, rooms in enumerate(FLOORS) for room in rooms}
 #: Optional packages imported where they are used, so the package works without them.
 OPTIONAL = {"mediapy", "warp", "wandb"}
+#: The most lines a module may have: a longer one holds several ideas (a package of modules, one each, reads better).
+MAX_LINES = 500
+
+
+def _paths() -> dict[str, Path]:
+    """Each module of the package by its dotted name."""
+    return {".".join(("dragmesh2_jax", *p.relative_to(PACKAGE).with_suffix("").parts)).removesuffix(".__init__"): p
+            for p in sorted(PACKAGE.rglob("*.py"))}
 
 
 def _modules() -> dict[str, ast.Module]:
-    out = {}
-    for path in sorted(PACKAGE.rglob("*.py")):
-        name = ".".join(("dragmesh2_jax", *path.relative_to(PACKAGE).with_suffix("").parts)).removesuffix(".__init__")
-        out[name] = ast.parse(path.read_text(), str(path))
-    return out
+    return {name: ast.parse(path.read_text(), str(path)) for name, path in _paths().items()}
 
 
 def _imports(tree: ast.Module, top_only: bool):
@@ -87,6 +91,11 @@ def test_no_import_circles():
     for m in sorted(graph):
         if m not in state:
             visit(m, [m])
+
+
+def test_no_module_is_over_max_lines():
+    lengths = {m: len(path.read_text().splitlines()) for m, path in _paths().items()}
+    assert {m: n for m, n in lengths.items() if n > MAX_LINES} == {}
 
 
 def test_every_folder_of_the_package_is_a_regular_package():

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.optimize import nnls
 from scipy.spatial import ConvexHull, QhullError
 
-from dragmesh2_jax.assets.gapartnet import Link, load_mesh, mesh_files, transform_points
+from dragmesh2_jax.assets.urdf import Link, load_mesh, mesh_files, transform_points
 from dragmesh2_jax.io import atomic_write_bytes, cache_dir, hash_files
 
 GEOMETRY_VERSION = "2"

@@ -20,7 +20,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from dragmesh2_jax.assets import gripper
-from dragmesh2_jax.assets.gapartnet import axis_angle_matrix, opening_direction
+from dragmesh2_jax.assets.target import opening_direction
+from dragmesh2_jax.assets.urdf import axis_angle_matrix
 from dragmesh2_jax.baselines.tracking import replay
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.scene import build_scene

@@ -10,7 +10,6 @@ the parallel-jaw primitive).
 from __future__ import annotations
 
 import dataclasses
-import io
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +19,7 @@ from matplotlib.patches import Rectangle
 from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.evaluation.rollout import cells, rollout
-from dragmesh2_jax.io import atomic_write_bytes
+from dragmesh2_jax.io import atomic_write_figure
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.task.env import PullTask
 
@@ -128,9 +127,7 @@ def envelope_figure(rows: list[dict], path: str | Path, title: str = "") -> Path
     for spine in ax.spines.values():
         spine.set_visible(False)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
-    return atomic_write_bytes(path, buf.getvalue())
+    return atomic_write_figure(path, fig, dpi=120)
 
 
 #: The physical figures of a cell (``rollout.cells``) as table columns: key, header, format.

@@ -9,7 +9,6 @@ import jax.numpy as jnp
 
 from dragmesh2_jax.errors import DragMeshError
 
-
 #: The paper's per-object training budget in epochs (paper Table 11: 150 epochs x 64 envs x 32 steps).
 PAPER_EPOCHS = 150
 

@@ -20,8 +20,9 @@ from pathlib import Path
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from dragmesh2_jax.assets.gapartnet import URDF_CANDIDATES, load_gapartnet
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.procedural import PAPER_TABLE1, synthesize_table1
+from dragmesh2_jax.assets.urdf import URDF_CANDIDATES
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.progress import LogLines, to_log

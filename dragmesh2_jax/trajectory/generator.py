@@ -28,7 +28,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from dragmesh2_jax.assets import hand as hand_lib
-from dragmesh2_jax.assets.gapartnet import GAPartNetObject, axis_angle_matrix, opening_direction
+from dragmesh2_jax.assets.gapartnet import GAPartNetObject
+from dragmesh2_jax.assets.target import opening_direction
+from dragmesh2_jax.assets.urdf import axis_angle_matrix
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, Scene, SceneConfig, build_scene
 from dragmesh2_jax.trajectory import grasp

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dragmesh2_jax.assets import hand as hand_lib
-from dragmesh2_jax.assets.gapartnet import HandleFrame
+from dragmesh2_jax.assets.target import HandleFrame
 
 # Finger DoF indices within the 45 finger DoFs (action index - 6): flexion is each segment's x hinge.
 MCP = (0, 9, 18, 27)  # Index1_x, Middle1_x, Pinky1_x, Ring1_x

@@ -11,8 +11,9 @@ import shutil
 import numpy as np
 import pytest
 
-from dragmesh2_jax.assets.gapartnet import load_gapartnet, load_link_vertices
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.procedural import packaged_object
+from dragmesh2_jax.assets.urdf import load_link_vertices
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import build_scene
 from dragmesh2_jax.trajectory.generator import GeneratorParams, drag_extent

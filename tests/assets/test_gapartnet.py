@@ -42,7 +42,7 @@ def test_frames_are_z_up_with_outward_normals(real_objects, oid):
     assert h.length >= h.width and h.thickness > 0
     if t.joint.is_revolute:  # doors hinge about a vertical axis; +q swings the handle outwards
         assert abs(abs(t.joint.axis[2]) - 1) < 1e-6
-        from dragmesh2_jax.assets.gapartnet import opening_direction
+        from dragmesh2_jax.assets.target import opening_direction
 
         assert opening_direction(t.part, t.joint, h.centre) @ h.normal > 0.5
     else:  # drawers slide out of the front

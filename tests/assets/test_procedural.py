@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets import procedural
-from dragmesh2_jax.assets.gapartnet import load_gapartnet, load_link_vertices, opening_direction
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.assets.target import opening_direction
+from dragmesh2_jax.assets.urdf import load_link_vertices
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import TARGET_BODY, build_scene
 
@@ -101,7 +103,7 @@ def test_dishwasher_door_opens_downward(tmp_path):
     assert abs(t.joint.axis[1]) == pytest.approx(1.0)  # horizontal hinge
     assert t.joint.origin[2] < t.part.centre[2]  # at the bottom edge
     # rotating +90 deg takes the handle down below the hinge
-    from dragmesh2_jax.assets.gapartnet import axis_angle_matrix
+    from dragmesh2_jax.assets.urdf import axis_angle_matrix
 
     rotated = t.joint.origin + axis_angle_matrix(t.joint.axis, np.pi / 2) @ (t.handle.centre - t.joint.origin)
     assert rotated[2] < t.joint.origin[2] + 0.05
@@ -200,7 +202,7 @@ def test_a_double_sided_knob_is_grasped_on_the_front_face(tmp_path):
 
 
 def test_a_handle_on_one_face_is_not_cut():
-    from dragmesh2_jax.assets.gapartnet import graspable_box
+    from dragmesh2_jax.assets.target import graspable_box
 
     obj = load_gapartnet(procedural.default_object())
     h = next(p for p in obj.parts if p.link == obj.target.handle.link)
