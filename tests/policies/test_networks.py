@@ -1,6 +1,7 @@
 """Policy networks: GLA matches a NumPy reference; every encoder builds; aux gradients reach only the
 temporal branch and the aux head; the aux targets are structurally not an input."""
 
+import functools
 import inspect
 from types import SimpleNamespace
 
@@ -22,6 +23,11 @@ from dragmesh2_jax.policies.networks import (
 )
 from dragmesh2_jax.ppo import train as train_lib
 from dragmesh2_jax.task.protocol import Obs
+
+
+def init_all(net: ActorCritic, key, *inputs):
+    """Every parameter of ``net`` (actor, critic, aux head) as one compiled program, not op by op."""
+    return jax.jit(functools.partial(net.init, method=ActorCritic.init_all))(key, *inputs)
 
 
 def gla_numpy(q, k, v, g):
@@ -124,8 +130,8 @@ def test_a_rollouts_windows_share_their_tokens_and_give_the_same_outputs():
 def test_every_encoder_builds_and_runs(encoder):
     net = ActorCritic(encoder=encoder)
     s, h, p = jnp.ones((3, 120)), jnp.ones((3, 16, 102)), jnp.ones((3, 24))
-    params = net.init(jax.random.PRNGKey(0), s, h, p, method=ActorCritic.init_all)
-    mu, log_std, v, z = net.apply(params, s, h, p)
+    params = init_all(net, jax.random.PRNGKey(0), s, h, p)
+    mu, log_std, v, z = jax.jit(net.apply)(params, s, h, p)
     assert mu.shape == (3, 51) and v.shape == (3,)
     np.testing.assert_allclose(log_std, -2.0)  # state-independent log-std, init -2.0
     assert (z is None) == (encoder == "none")
@@ -139,7 +145,7 @@ def test_linear_maps_start_as_the_references_pytorch_linears(encoder):
     net = ActorCritic(encoder=encoder)
     ks, kh = jax.random.split(jax.random.key(1))
     s, h, p = jax.random.normal(ks, (4096, 120)), jax.random.normal(kh, (4096, 16, 102)), jnp.zeros((4096, 24))
-    params = net.init(jax.random.key(0), s[:1], h[:1], p[:1], method=ActorCritic.init_all)
+    params = init_all(net, jax.random.key(0), s[:1], h[:1], p[:1])
     kernels = 0
     for path, w in jax.tree_util.tree_leaves_with_path(params):
         name = [getattr(k, "key", "") for k in path]
@@ -153,8 +159,8 @@ def test_linear_maps_start_as_the_references_pytorch_linears(encoder):
                 assert np.std(w) == pytest.approx((3 * fan_in) ** -0.5, rel=0.1), name
             kernels += 1
     assert kernels >= 5  # the state MLP, mu, value, aux head at least
-    mu = net.apply(params, s, h, p)[0]
-    assert float(jnp.mean(jnp.abs(mu) > 1.0)) < 0.01
+    mu = np.asarray(jax.jit(net.apply)(params, s, h, p)[0])
+    assert np.mean(np.abs(mu) > 1.0) < 0.01
 
 
 def test_privileged_critic_sees_what_the_actor_never_does():
@@ -164,9 +170,10 @@ def test_privileged_critic_sees_what_the_actor_never_does():
     p0, p1 = jnp.zeros((2, 24)), jnp.full((2, 24), 3.0)
     for critic, value_moves in (("privileged", True), ("shared", False)):
         net = ActorCritic(encoder="gla", critic=critic)
-        params = net.init(jax.random.PRNGKey(0), s, h, p0, method=ActorCritic.init_all)
-        mu0, _, v0, _ = net.apply(params, s, h, p0)
-        mu1, _, v1, _ = net.apply(params, s, h, p1)
+        params = init_all(net, jax.random.PRNGKey(0), s, h, p0)
+        apply = jax.jit(net.apply)
+        mu0, _, v0, _ = apply(params, s, h, p0)
+        mu1, _, v1, _ = apply(params, s, h, p1)
         np.testing.assert_array_equal(mu0, mu1)
         assert bool(jnp.any(v0 != v1)) == value_moves
         mu_actor, _ = net.apply(params, s, h, method=ActorCritic.actor)
@@ -190,14 +197,14 @@ def test_aux_loss_gradients_reach_only_the_temporal_branch_and_aux_head():
     net = ActorCritic(encoder="gla")
     s, h = jax.random.normal(jax.random.PRNGKey(1), (4, 120)), jax.random.normal(jax.random.PRNGKey(2), (4, 16, 102))
     priv = jnp.zeros((4, 24))
-    params = net.init(jax.random.PRNGKey(0), s, h, priv, method=ActorCritic.init_all)
+    params = init_all(net, jax.random.PRNGKey(0), s, h, priv)
 
     def aux_loss(p):
         _, _, _, z = net.apply(p, s, h, priv)
         return jnp.sum(net.apply(p, z, method=ActorCritic.aux) ** 2)
 
-    g = jax.grad(aux_loss)(params)["params"]
-    norm = lambda t: float(sum(jnp.abs(x).sum() for x in jax.tree.leaves(t)))  # noqa: E731
+    g = jax.jit(jax.grad(aux_loss))(params)["params"]
+    norm = lambda t: float(sum(np.abs(np.asarray(x)).sum() for x in jax.tree.leaves(t)))  # noqa: E731
     assert norm(g["temporal"]) > 0 and norm(g["aux_head"]) > 0 and norm(g["aux_out"]) > 0
     assert norm(g["temporal"]["GatedLinearAttention_0"]) > 0
     for head in ("mu", "value", "state_mlp", "log_std"):
@@ -212,7 +219,7 @@ def test_aux_targets_are_not_a_network_input():
     obs = Obs(state=jnp.ones((2, 120)), history=jnp.ones((2, 16, 102)), aux=jnp.zeros((2, 4)),
               privileged=jnp.zeros((2, 24)), step=jnp.zeros(2, jnp.int32))
     net = ActorCritic(encoder="gla")
-    params = net.init(jax.random.PRNGKey(0), obs.state, obs.history, obs.privileged, method=ActorCritic.init_all)
+    params = init_all(net, jax.random.PRNGKey(0), obs.state, obs.history, obs.privileged)
     program = SimpleNamespace(config=SimpleNamespace(normalize_obs=False))
     out1 = net.apply(params, *train_lib._inputs(program, None, obs))
     out2 = net.apply(params, *train_lib._inputs(program, None, obs.replace(aux=jnp.full((2, 4), 1e6))))
