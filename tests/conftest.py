@@ -30,6 +30,9 @@ REAL_OBJECTS = ("45261", "45661", "45780", "11712")
 
 
 #: The one tiny network and batch of the training tests: every tiny run shares their compiled programs.
+#: The xdist group of the modules whose fixtures train tiny PICA runs (``tiny_spec``): on one worker, their epoch and
+#: evaluation programs compile once rather than once per worker.
+TINY_RUNS = "tiny_runs"
 TINY_NET = NetworkConfig(state_sizes=(64, 64), hist_dim=32, heads=2, critic_sizes=(64,))
 TINY_PPO = {"num_envs": 4, "rollout_len": 8, "epochs": 2}
 

@@ -12,10 +12,9 @@ import pytest
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
-from tests.conftest import tiny_program
+from tests.conftest import TINY_RUNS, tiny_program
 
-#: The module's trained run is built once: keep the file on one xdist worker.
-pytestmark = pytest.mark.xdist_group(__name__)
+pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once, beside the others
 
 
 @pytest.fixture(scope="session")

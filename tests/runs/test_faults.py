@@ -17,12 +17,11 @@ from dragmesh2_jax.policies.methods import RECIPE_EPOCHS
 from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.spec import method_spec
-from tests.conftest import installed_command, read_only
+from tests.conftest import TINY_RUNS, installed_command, read_only
 from tests.runs.test_session import tensorboard_scalars
 from tests.test_io import hold_lock, release
 
-#: The module's trained run is built once: keep the file on one xdist worker.
-pytestmark = pytest.mark.xdist_group(__name__)
+pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once, beside the others
 
 dragmesh2 = installed_command()
 TINY = ["--epochs", "2", "--num-envs", "4", "--ppo.rollout-len", "8", "--backend", "mujoco", "--quiet",

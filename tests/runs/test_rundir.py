@@ -14,10 +14,9 @@ from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import Selection, start_or_resume
-from tests.conftest import tiny_spec
+from tests.conftest import TINY_RUNS, tiny_spec
 
-#: The module's trained run is built once: keep the file on one xdist worker.
-pytestmark = pytest.mark.xdist_group(__name__)
+pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once, beside the others
 
 
 @pytest.fixture(scope="session")

@@ -22,10 +22,9 @@ from dragmesh2_jax.runs.session import Selection, start_or_resume
 from dragmesh2_jax.runs.spec import finetune_spec
 from dragmesh2_jax.task.config import ReconfigConfig
 from dragmesh2_jax.task.rewards import BASE_TERMS, TERM_PREFIX
-from tests.conftest import require_package, tiny_spec
+from tests.conftest import TINY_RUNS, require_package, tiny_spec
 
-#: The module's trained run is built once: keep the file on one xdist worker.
-pytestmark = pytest.mark.xdist_group(__name__)
+pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once, beside the others
 
 REPO = Path(__file__).resolve().parents[2]
 WANDB_TIMEOUT_S = 600
