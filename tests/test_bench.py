@@ -1,9 +1,6 @@
 """The benchmark command reports the documented keys (speed itself is measured, never asserted)."""
 
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -11,7 +8,7 @@ import pytest
 
 from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.bench import bench_soak, learning_regressions
-from tests.conftest import installed_command
+from tests.conftest import installed_command, require_warp
 
 dragmesh2 = installed_command()
 
@@ -36,21 +33,19 @@ def test_bench_env_mixes_objects_in_one_batch(capsys):
     assert row["objects"] == 2 and row["num_envs"] == 4 and row["physics_steps_per_s"] > 0
 
 
-@pytest.mark.mjx
-def test_bench_env_puts_the_engines_side_by_side():
-    """The C engine and MJX-JAX at 16 worlds in a fresh process, as a user runs it (jaxlib 0.10's LAPACK deadlock,
-    two batched Cholesky calls on a 2-thread pool, hung MJX-JAX here before ``avoid_lapack_deadlock``), each with the
-    contact slots and constraint rows one world holds (MJX-Warp's: tests/physics/test_mjx_backend.py)."""
-    cmd = [str(Path(sys.executable).parent / "dragmesh2"), "bench", "env", "--backend", "mujoco,mjx", "--impl",
-           "jax", "--num-envs", "16", "--steps", "2", "--json"]
-    out = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
-    assert out.returncode == 0, out.stderr[-2000:]
-    rows = json.loads(out.stdout)
-    assert [r["engine"] for r in rows] == ["mujoco", "mjx-jax"] and {r["num_envs"] for r in rows} == {16}
-    c, jx = rows
+@pytest.mark.xdist_group("warp")  # beside the other Warp tests: Warp compiles its kernels once per process
+def test_bench_env_puts_the_engines_side_by_side(capsys):
+    """The C engine and MJX at the same number of worlds, each with the contact slots and constraint rows one world
+    holds (MJX-JAX's first-step deadlock on a CPU: tests/physics/test_mjx_backend.py, in a fresh process)."""
+    require_warp()
+    assert dragmesh2(["bench", "env", "--backend", "mujoco,mjx", "--impl", "warp", "--num-envs", "2", "--steps", "2",
+                      "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["engine"] for r in rows] == ["mujoco", "mjx-warp"] and {r["num_envs"] for r in rows} == {2}
+    c, wp = rows
     assert c["contact_slots"] is None and all(r["physics_steps_per_s"] > 0 for r in rows)
-    assert jx["contact_slots"] < jx["budget"]["candidates"]  # the probe's budget, capped
-    assert jx["constraint_rows"] >= 4 * jx["contact_slots"]
+    assert wp["contact_slots"] < wp["budget"]["candidates"]  # the probe's budget, capped
+    assert wp["constraint_rows"] >= 4 * wp["contact_slots"]
 
 
 def test_bench_soak_counts_non_finite_worlds_per_damping_and_keeps_the_batch(drawer_task):

@@ -4,6 +4,8 @@ each world's damping reaches its physics, and a buffer too small for the contact
 worker runs them all: Warp compiles its kernels once per process (and caches them on disk)."""
 
 import dataclasses
+import subprocess
+import sys
 
 import jax
 import numpy as np
@@ -147,3 +149,30 @@ def test_seeds_as_one_program_equal_separate_runs():
     both = epoch_runs(p, p.data(2), init_runs(p, p.data(2), seed_keys([0, 1])))[1]["loss"]
     alone = [float(epoch_jit(p, p.data(), init_jit(p, p.data(), seed_keys([s])[0]))[1]["loss"]) for s in (0, 1)]
     np.testing.assert_allclose(np.asarray(both), alone, rtol=2e-3, atol=2e-3)
+
+
+#: A fresh process that starts as ``dragmesh2`` does for a command on MJX (the CLI pins JAX's CPU pool before anything
+#: starts JAX: ``mjx_backend.avoid_lapack_deadlock``), then runs two batched Cholesky factorisations in one program,
+#: as MJX-JAX's Newton solver and implicitfast integrator do from about 5 worlds. jaxlib 0.10's CPU LAPACK kernels
+#: deadlock on them on a 2-thread pool: without the pin (the same process on ``--backend mujoco``) it hangs.
+LAPACK_PROBE = """
+import jax
+import jax.numpy as jnp
+
+from dragmesh2_jax.cli import main
+
+assert main(["bench", "env", "--backend", "mjx", "--object", "/nonexistent/object"]) == 2  # past the CLI's start
+m = jax.random.normal(jax.random.PRNGKey(0), (64, 128, 128))
+spd = m @ jnp.swapaxes(m, -1, -2) + 128 * jnp.eye(128)
+both = jax.jit(lambda x, y: jnp.linalg.cholesky(x).sum() + jnp.linalg.cholesky(y).sum())
+for i in range(20):
+    jax.block_until_ready(both(spd, 2 * spd + i))
+print("factorised")
+"""
+LAPACK_PROBE_TIMEOUT_S = 120  # it finishes in ~10 s; a deadlock never does
+
+
+def test_a_cli_process_on_mjx_factorises_batches_without_deadlock():
+    done = subprocess.run([sys.executable, "-c", LAPACK_PROBE], capture_output=True, text=True,
+                          timeout=LAPACK_PROBE_TIMEOUT_S)
+    assert done.returncode == 0 and "factorised" in done.stdout, done.stderr[-2000:]
