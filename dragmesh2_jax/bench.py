@@ -110,7 +110,7 @@ def bench_train(program: TrainProgram, epochs: int, runs: int = 1) -> dict:
     per = (time.perf_counter() - t0) / epochs
     c = program.config
     steps = runs * c.num_envs * c.rollout_len
-    return {"method": program.method.name, "backend": program.task.backend.name, "num_envs": c.num_envs,
+    return {"method": program.name, "backend": program.task.backend.name, "num_envs": c.num_envs,
             "runs": runs, "object": program.task.scene.obj.object_id, "first_epoch_s": round(first, 2),
             "s_per_epoch": round(per, 4), "env_steps_per_s": round(steps / per, 1),
             "physics_steps_per_s": round(steps * program.task.substeps / per, 1),
@@ -221,7 +221,7 @@ def learning_curves(objects: list[str], method: str = LEARNING_METHOD, epochs: i
     t0 = time.perf_counter()
     curves = {}
     for obj in objects:
-        program = program_of(method_spec(method, obj, {"epochs": epochs}, backend=backend))
+        program = program_of(method_spec(method, obj, backend=backend))
         data = program.data(len(seeds))
         ts = init_runs(program, data, seed_keys(list(seeds)))
         rows = {k: [] for k in CURVE_KEYS}

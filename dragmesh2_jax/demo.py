@@ -18,14 +18,12 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import PHYSICAL, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_figure, atomic_write_text
-from dragmesh2_jax.policies.methods import get_method
-from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.progress import LogLines
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video, render_pose
 from dragmesh2_jax.runs.commands import evaluate_loaded, load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
-from dragmesh2_jax.runs.spec import method_spec
+from dragmesh2_jax.runs.spec import method_defaults, method_spec
 
 CPU_EPOCHS = 60  # a small preset on a CPU; on an accelerator the method's own budget
 
@@ -37,7 +35,7 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
     evaluation cell); returns the report's path."""
     gpu = jax.default_backend() != "cpu"
     protocol = dataclasses.replace(PAPER, episodes=episodes)
-    epochs = epochs or ((get_method(method).epochs or PPOConfig.epochs) if gpu else CPU_EPOCHS)
+    epochs = epochs or (method_defaults(method).schedule.epochs if gpu else CPU_EPOCHS)
     out = Path(out)
     folder = str(object_dir or default_object())
     print(f"dragmesh2 demo: trajectory -> {method} ({epochs} epochs x 64 envs x 32 steps) -> evaluation at damping "
@@ -46,13 +44,13 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
     t0 = time.time()
     stages = LogLines("demo", 4, enabled=progress)
     run = RunDir(out)
-    spec = method_spec(method, folder, {"epochs": epochs, "seed": seed}, backend=backend)
+    spec = method_spec(method, folder, backend=backend,
+                       schedule={"epochs": epochs, "seed": seed, "save_every": max(epochs // 3, 1)})
     with run.writing():  # the whole demo: one writer of its folder at a time
-        if run.exists() and (differ := run.spec().differences(method, folder, ppo={"seed": seed})):
+        if run.exists() and (differ := run.spec().differences(method, folder, schedule={"seed": seed})):
             raise DragMeshError(f"{out}: holds a demo of another run ({'; '.join(differ)}); give another --out")
         # a rerun resumes the run there (trained further when asked for more epochs) and redoes the rest
-        _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=None, epochs=epochs,
-                                        save_every=max(epochs // 3, 1), progress=progress)
+        _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=None, progress=progress)
         stages(1, f"1/4 trained ({epochs} epochs)")
         program, ts, run, ck = load_run(out)  # the checkpoint its method reads
         traj = program.task.traj
@@ -70,7 +68,7 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
     q = traj.header.get("quality", {})
     obj = program.task.scene.obj
     report = [
-        f"# DragMesh-2 demo: {program.method.name} on {obj.object_id} ({obj.category})", "",
+        f"# DragMesh-2 demo: {program.name} on {obj.object_id} ({obj.category})", "",
         f"- object: `{folder}`; target `{obj.target.joint.name}` "
         f"({'revolute' if program.task.scene.ids.target_is_revolute else 'prismatic'})",
         f"- reference trajectory: {len(traj.frames)} frames, quality gate {'passed' if q.get('passed') else 'n/a'}; "

@@ -30,9 +30,9 @@ from dragmesh2_jax.runs.spec import method_spec
 DAMPINGS = list(PAPER.dampings)
 
 
-def ours(program: TrainProgram, seed: int):
+def ours(program: TrainProgram, epochs: int, seed: int):
     ts = init_jit(program, program.data(), seed_keys([seed])[0])
-    for _ in range(program.config.epochs):
+    for _ in range(epochs):
         ts, _ = epoch_jit(program, program.data(), ts)
     return program.controller(ts)
 
@@ -47,7 +47,7 @@ def main() -> None:
     args = p.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    program = program_of(method_spec("state_only", args.object, {"epochs": args.epochs}, backend="mujoco"))
+    program = program_of(method_spec("state_only", args.object, backend="mujoco"))
     task = PAPER.task(program.task)
     rows = []
     for seed in [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]:
@@ -58,9 +58,9 @@ def main() -> None:
                 continue
             t0 = time.time()
             if impl == "ours":
-                controller = ours(program, seed)
+                controller = ours(program, args.epochs, seed)
             else:
-                controller, _ = train_brax_ppo(program.task, dataclasses.replace(program.config, seed=seed))
+                controller, _ = train_brax_ppo(program.task, program.config, args.epochs, seed)
             seconds = time.time() - t0
             res = evaluate(task, controller, dataclasses.replace(PAPER, episodes=args.episodes, seed=seed))
             res.update(impl=impl, seed=seed, train_seconds=round(seconds, 1))

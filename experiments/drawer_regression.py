@@ -19,21 +19,20 @@ import numpy as np
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.evaluation.rollout import cells, rollout
 from dragmesh2_jax.io import atomic_write_json
-from dragmesh2_jax.policies.methods import get_method, task_overrides
-from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import init_jit, make_train, policy_params, seed_keys
 from dragmesh2_jax.runs.commands import parse_floats
+from dragmesh2_jax.runs.spec import method_defaults
 from dragmesh2_jax.scene import build_scene
-from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.trajectory.generator import GeneratorParams, generate
 
 WORLDS = 64  # the paper's batch: the first rollout of training
+PICA = method_defaults("pica")
 
 
 def first_episodes(task: PullTask, seeds: list[int]) -> list[dict]:
     """The untrained PICA policy's first episode in WORLDS worlds at x1 (stochastic, as training samples it)."""
-    program = make_train(task, get_method("pica"), PPOConfig())
+    program = make_train(task, PICA.network, PICA.ppo, PICA.method)
     out = []
     for s in seeds:
         ts = init_jit(program, task.data, seed_keys([s])[0])
@@ -51,7 +50,7 @@ def main() -> None:
     p.add_argument("--out", default="results/drawer_regression/placements.json")
     args = p.parse_args()
     seeds = [int(s) for s in parse_floats(args.seeds, "--seeds", minimum=0)]
-    config = TaskConfig(backend="mujoco", **task_overrides(get_method("pica")))
+    config = PICA.on("mujoco").task
     rows = []
     for folder in args.objects:
         obj = load_gapartnet(folder)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import importlib.util
 import os
 import shutil
@@ -33,15 +32,17 @@ REAL_OBJECTS = ("45261", "45661", "45780", "11712")
 #: The xdist group of the modules whose fixtures train tiny PICA runs (``tiny_spec``): on one worker, their epoch and
 #: evaluation programs compile once rather than once per worker.
 TINY_RUNS = "tiny_runs"
-TINY_NET = NetworkConfig(state_sizes=(64, 64), hist_dim=32, heads=2, critic_sizes=(64,))
-TINY_PPO = {"num_envs": 4, "rollout_len": 8, "epochs": 2}
+TINY_SIZES = {"state_sizes": (64, 64), "hist_dim": 32, "heads": 2, "critic_sizes": (64,)}  # the method's encoder
+TINY_NET = NetworkConfig(**TINY_SIZES)  # and critic: this is PICA's
+TINY_PPO = {"num_envs": 4, "rollout_len": 8}
+TINY_SCHEDULE = {"epochs": 2}
 
 
 def tiny_spec(method: str = "pica", obj: str | None = None, backend: str = "mujoco", task: dict | None = None,
-              scene: dict | None = None, impl: str = "jax", **ppo) -> RunSpec:
-    """A method preset on ``obj`` (default: the packaged drawer) with the tiny network and batch."""
-    spec = method_spec(method, obj or str(default_object()), {**TINY_PPO, **ppo}, task, scene, backend, impl)
-    return dataclasses.replace(spec, network=TINY_NET)
+              scene: dict | None = None, impl: str = "jax", schedule: dict | None = None, **ppo) -> RunSpec:
+    """A method on ``obj`` (default: the packaged drawer) with the tiny network sizes, batch and schedule."""
+    return method_spec(method, obj or str(default_object()), {**TINY_PPO, **ppo}, task, scene, backend, impl,
+                       TINY_SIZES, schedule={**TINY_SCHEDULE, **(schedule or {})})
 
 
 def tiny_program(method: str = "pica", obj: str | None = None, backend: str = "mujoco", trajectory=None,

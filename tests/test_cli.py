@@ -10,7 +10,7 @@ from PIL import Image
 
 from dragmesh2_jax import render
 from dragmesh2_jax.assets.procedural import default_object
-from dragmesh2_jax.cli.flags import CONFIG_CLASSES, config_changes
+from dragmesh2_jax.cli.flags import CONFIG_CLASSES, config_changes, flag_name
 from dragmesh2_jax.cli.parser import build_parser
 from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.policies.methods import RECOMMENDED
@@ -131,8 +131,10 @@ def test_bad_input_is_one_error_line_and_status_2(argv, tmp_path, capsys):
     assert not (tmp_path / "x").exists()  # nothing was written
 
 
-#: A valid value, not the default, for every --task./--scene./--ppo. flag of ``train`` (valid together).
+#: A valid value, not the default, for every config flag of ``train`` (valid together).
 FLAG_VALUES = {
+    "schedule": {"epochs": 3, "seed": 5, "save_every": 2, "robust_every": 0, "checkpoint": "final",
+                 "dampings": (1.0, 8.0)},
     "task": {"alpha": 0.04, "control_dt": 1 / 30, "episode_length": 200, "history_len": 8, "aux_window": 3,
              "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0), "damping_fixed": 2.0,
              "friction_range": (0.8, 1.2), "force_obs": True, "nthread": 1, "contacts": 48},
@@ -143,7 +145,8 @@ FLAG_VALUES = {
             "update_epochs": 2, "num_minibatches": 2, "value_coef": 0.5, "clip_value": False, "entropy_coef": 1e-3,
             "bounds_coef": 0.02, "aux_weight": 0.02, "aux_warmup": (2, 4), "aux_channel_weights": (1.0, 1.0, 1.0, 1.0),
             "max_grad_norm": 0.5, "normalize_obs": False, "normalize_advantage": False},
-    "network": {"state_sizes": (64, 64), "hist_dim": 32, "heads": 2, "log_std_init": -1.5, "critic_sizes": (64,)},
+    "network": {"encoder": "gru", "critic": "privileged", "state_sizes": (64, 64), "hist_dim": 32, "heads": 2,
+                "log_std_init": -1.5, "critic_sizes": (64,)},
 }
 
 
@@ -156,27 +159,28 @@ def _flag(value) -> str:
 def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and_scene():
     argv = ["train", "--object", str(default_object()), "--out", "x"]
     for prefix, values in FLAG_VALUES.items():
-        argv += [a for f, v in values.items() for a in (f"--{prefix}.{f.replace('_', '-')}", _flag(v))]
+        argv += [a for f, v in values.items() for a in (flag_name(prefix, f), _flag(v))]
     args = build_parser().parse_args(argv)
     for prefix in CONFIG_CLASSES:
         assert config_changes(args, prefix) == FLAG_VALUES[prefix], prefix
     spec = method_spec("pica", args.object, config_changes(args, "ppo"), config_changes(args, "task"),
-                       config_changes(args, "scene"), backend="mujoco", network=config_changes(args, "network"))
+                       config_changes(args, "scene"), backend="mujoco", network=config_changes(args, "network"),
+                       schedule=config_changes(args, "schedule"))
     assert RunSpec.from_record(spec.record("mujoco")) == spec  # the record holds every flag
     program = program_of(spec)
     built = {"task": program.task.config, "scene": program.task.scene.config, "ppo": program.config,
-             "network": program.method.network}
+             "network": program.network, "schedule": spec.schedule}
     for prefix, values in FLAG_VALUES.items():
         for f, v in values.items():
             assert getattr(built[prefix], f) == v, f"{prefix}.{f}"
     assert float(program.task.params.q_done) == pytest.approx(program.task.traj.q_done_at(0.6))  # rho is live
     # and no flag is left out of this table: the parser offers exactly these
     offered = {(a.dest.split("__", 1)[0], a.dest.split("__", 1)[1]) for a in
-               _train_parser()._actions if "__" in a.dest}
+               train_parser()._actions if "__" in a.dest}
     assert offered == {(p, f) for p, values in FLAG_VALUES.items() for f in values}
 
 
-def _train_parser():
+def train_parser():
     sub = next(a for a in build_parser()._actions if a.dest == "cmd")
     return sub.choices["train"]
 
@@ -213,7 +217,7 @@ def test_help_shows_every_default():
             shown = formatter._format_action(a)  # what --help prints for it
             if a.default is not None or set(a.option_strings) & named.get(sub.prog, set()):
                 assert "default" in shown, (sub.prog, a.option_strings)
-    help_text = _train_parser().format_help()
+    help_text = train_parser().format_help()
     assert "(default: auto)" in help_text and "TaskConfig's 0.05" in help_text
 
 

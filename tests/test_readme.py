@@ -125,7 +125,7 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, displ
     assert all(re.search(r"elapsed \d+ s  left ~\d+ s$", ln) for ln in lines)
     assert '"epochs": 3' in Path("runs/pica_45261/run.json").read_text()  # the resume extended the record
     record = json.loads(Path("runs/pica3/seed_1/run.json").read_text())  # every flag reaches the record
-    assert record["task"]["alpha"] == 0.03 and record["scene"]["damping"] == 25.0 and record["ppo"]["seed"] == 1
+    assert record["task"]["alpha"] == 0.03 and record["scene"]["damping"] == 25.0 and record["schedule"]["seed"] == 1
     assert record["network"]["state_sizes"] == [64, 64] and record["ppo"]["num_envs"] == 2
     # zero-shot on an unseen folder: its own evaluation file; the fine-tune onto it is a run of that object alone
     (zero_shot,) = Path("runs/mix/evaluations").glob("*__on-45780.json")

@@ -23,7 +23,7 @@ from brax.training.agents.ppo import train as ppo
 
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.policies.networks import NetworkConfig
-from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
 from dragmesh2_jax.task.brax_env import BraxPullEnv
 from dragmesh2_jax.task.env import PullTask
 
@@ -42,24 +42,27 @@ def _jax_compat() -> None:
         jax.device_put_replicated = _device_put_replicated
 
 
-def brax_ppo_kwargs(config: PPOConfig, episode_length: int) -> dict:
-    """brax ``ppo.train`` arguments for ``config``'s budget and hyper-parameters."""
+def brax_ppo_kwargs(config: PPOConfig, episode_length: int, epochs: int = PAPER_EPOCHS, seed: int = 42) -> dict:
+    """brax ``ppo.train`` arguments for ``config``'s hyper-parameters and ``epochs`` of our updates' budget from
+    ``seed`` (a run's schedule)."""
     if config.num_envs % config.num_minibatches:
         raise ValueError("brax needs num_envs divisible by num_minibatches")
     return dict(
-        num_timesteps=config.epochs * config.num_envs * config.rollout_len, num_evals=2, run_evals=False,
+        num_timesteps=epochs * config.num_envs * config.rollout_len, num_evals=2, run_evals=False,
         num_envs=config.num_envs, episode_length=episode_length, unroll_length=config.rollout_len,
         batch_size=config.num_envs // config.num_minibatches, num_minibatches=config.num_minibatches,
         num_updates_per_batch=config.update_epochs, learning_rate=config.lr, discounting=config.gamma,
         gae_lambda=config.gae_lambda, clipping_epsilon=config.clip_eps, entropy_cost=config.entropy_coef,
         vf_loss_coefficient=config.value_coef, max_grad_norm=config.max_grad_norm,
         normalize_observations=config.normalize_obs, normalize_advantage=config.normalize_advantage,
-        bootstrap_on_timeout=True, seed=config.seed)
+        bootstrap_on_timeout=True, seed=seed)
 
 
-def train_brax_ppo(task: PullTask, config: PPOConfig = PPOConfig()) -> tuple[Controller, dict]:
-    """Train state-only PPO with brax on ``task`` (the state-only preset's task); returns the trained policy as
-    the evaluator's :class:`Controller` and brax's final training metrics."""
+def train_brax_ppo(task: PullTask, config: PPOConfig = PPOConfig(), epochs: int = PAPER_EPOCHS,
+                   seed: int = 42) -> tuple[Controller, dict]:
+    """Train state-only PPO with brax on ``task`` (the state-only preset's task) for ``epochs`` of our updates'
+    budget from ``seed``; returns the trained policy as the evaluator's :class:`Controller` and brax's final
+    training metrics."""
     _jax_compat()
     env = BraxPullEnv(task)
     network_factory = functools.partial(
@@ -68,7 +71,7 @@ def train_brax_ppo(task: PullTask, config: PPOConfig = PPOConfig()) -> tuple[Con
         activation=nn.elu, distribution_type="normal", noise_std_type="log",
         init_noise_std=math.exp(NETWORK.log_std_init))
     make_policy, params, metrics = ppo.train(env, network_factory=network_factory,
-                                             **brax_ppo_kwargs(config, env.episode_length))
+                                             **brax_ppo_kwargs(config, env.episode_length, epochs, seed))
     return brax_controller(make_policy, params), {k: float(v) for k, v in metrics.items()}
 
 

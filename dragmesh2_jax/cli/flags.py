@@ -1,5 +1,6 @@
 """The command line's flag values: argparse types that refuse bad input when parsed, damping lists, and every field
-of the task, scene, PPO and network configs as a ``--<prefix>.<field>`` flag."""
+of a run's configuration tree as a flag: ``--<group>.<field>`` for the task, scene, PPO and network configs, the
+schedule's fields by their own names (``--epochs``, ``--seed``, ``--save-every``, ...)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.runs.commands import parse_floats
+from dragmesh2_jax.runs.spec import Schedule
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig
 
@@ -48,8 +50,22 @@ def one_damping(text: str) -> float:
 
 
 # ------------------------------------------------------------- every config field as a flag
-#: Config dataclasses whose fields ``dragmesh2 train`` takes as ``--<prefix>.<field>`` flags.
-CONFIG_CLASSES = {"task": TaskConfig, "scene": SceneConfig, "ppo": PPOConfig, "network": NetworkConfig}
+#: Config dataclasses whose fields ``dragmesh2 train`` takes as flags, by their group in a run's spec.
+CONFIG_CLASSES = {"schedule": Schedule, "task": TaskConfig, "scene": SceneConfig, "ppo": PPOConfig,
+                  "network": NetworkConfig}
+#: Groups whose flags go without the group's name: a run's schedule is what every run command asks for.
+UNGROUPED = ("schedule",)
+#: What each group's flags are, in ``--help``.
+GROUP_HELP = {"schedule": "how the run is driven: its length in epochs (a resumed run: its own; more extend it), its "
+                          "seed, its checkpoint and robustness-check intervals (--robust-every 0: no checks; a resumed "
+                          "run: its own), the checkpoint that stands for it (best_robust | final) and the damping "
+                          "cells it is evaluated at by default (none: the paper's x1/x2/x4)"}
+
+
+def flag_name(group: str, name: str) -> str:
+    """The flag of a config field: ``--ppo.num-minibatches``, a schedule's ``--save-every``."""
+    name = name.replace("_", "-")
+    return f"--{name}" if group in UNGROUPED else f"--{group}.{name}"
 
 
 def _field_parser(tp):
@@ -79,15 +95,16 @@ def _bool(s: str) -> bool:
 
 
 def add_config_args(p: argparse.ArgumentParser, skip: tuple[str, ...] = ()) -> None:
-    """``--task.alpha 0.03``, ``--ppo.num-envs 8``, ``--scene.damping 25``, ``--network.hist-dim 64``: every
-    scalar and tuple field of the task, scene, PPO and network configs (defaults: the method preset's)."""
+    """``--epochs 300``, ``--task.alpha 0.03``, ``--ppo.num-envs 8``, ``--scene.damping 25``, ``--network.hist-dim
+    64``: every scalar and tuple field of a run's schedule, task, scene, PPO and network configs (defaults: the
+    method's)."""
     for prefix, cls in CONFIG_CLASSES.items():
-        g = p.add_argument_group(f"{prefix} config ({cls.__name__}; default: the preset's)")
+        g = p.add_argument_group(f"{prefix} config ({cls.__name__}; default: the method's)", GROUP_HELP.get(prefix))
         for f in dataclasses.fields(cls):
             parse = _field_parser(f.type)
             if parse is None or f"{prefix}.{f.name}" in skip:
                 continue
-            g.add_argument(f"--{prefix}.{f.name.replace('_', '-')}", dest=f"{prefix}__{f.name}", type=parse,
+            g.add_argument(flag_name(prefix, f.name), dest=f"{prefix}__{f.name}", type=parse,
                            default=argparse.SUPPRESS, metavar=f.type if isinstance(f.type, str) else None,
                            help=f"default: the method's; {cls.__name__}'s {flag_value(f.default)}")
 
@@ -99,6 +116,6 @@ def flag_value(value) -> str:
 
 
 def config_changes(args, prefix: str) -> dict:
-    """The ``--<prefix>.<field>`` flags given on the command line."""
+    """The flags of a group's fields given on the command line."""
     return {k.split("__", 1)[1]: v for k, v in vars(args).items() if k.startswith(f"{prefix}__")}
 

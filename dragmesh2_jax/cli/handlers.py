@@ -40,7 +40,6 @@ from dragmesh2_jax.runs.commands import (
     video_of_run,
     view_run,
 )
-from dragmesh2_jax.runs.session import Selection
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.trajectory.dataset import build_dataset
 
@@ -230,14 +229,12 @@ def cmd_train(args) -> int:
     program, logs = train_run(
         args.out, objects, trajectory, args.method, args.backend, args.impl, seeds, args.resume, holdout=args.holdout,
         task_changes=config_changes(args, "task"), scene_changes=config_changes(args, "scene"),
-        network_changes=config_changes(args, "network"),
-        selection=None if args.robust_every is None else Selection(every=args.robust_every),
-        save_every=args.save_every, progress=not args.quiet, wandb=args.wandb,
-        epochs=args.epochs, num_envs=args.num_envs, seed=args.seed, lr_schedule=args.lr_schedule,
+        network_changes=config_changes(args, "network"), schedule_changes=config_changes(args, "schedule"),
+        progress=not args.quiet, wandb=args.wandb, num_envs=args.num_envs, lr_schedule=args.lr_schedule,
         **config_changes(args, "ppo"))
     for seed, rows in logs:
         last = rows[-1] if rows else {}
-        print(f"{args.out}: {program.method.name} seed {seed} on {program.task.scene.obj.object_id} "
+        print(f"{args.out}: {program.name} seed {seed} on {program.task.scene.obj.object_id} "
               f"({program.task.backend.name}), {last.get('epoch', 0)} epochs, training success "
               f"{last.get('success', 0):.2f}, reward {last.get('reward', 0):.2f}, {last.get('seconds', 0):.0f} s")
     return 0
@@ -245,8 +242,8 @@ def cmd_train(args) -> int:
 
 def cmd_finetune(args) -> int:
     parent, rows = finetune_run(args.checkpoint, args.recipe, args.out, _engine(args.backend), args.impl, args.epochs,
-                                Selection(every=args.robust_every), args.save_every, not args.quiet, args.object,
-                                args.trajectory)
+                                {"save_every": args.save_every, "robust_every": args.robust_every},
+                                progress=not args.quiet, object_dir=args.object, trajectory=args.trajectory)
     last = rows[-1] if rows else {}
     print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, training success "
           f"{last.get('success', 0):.2f}, clip099 {last.get('clip099', 0):.2f}, {last.get('seconds', 0):.0f} s")

@@ -28,7 +28,7 @@ from dragmesh2_jax.cli.handlers import (
 from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES
 from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.policies.methods import METHODS, RECIPE_DAMPINGS, RECOMMENDED
-from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
 from dragmesh2_jax.ppo.finetune import FINETUNES
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
 from dragmesh2_jax.reproduce import CHECKPOINTS, GENERALIST_HOLDOUT, GENERALIST_OBJECTS, SCALING_OBJECTS, TABLES
@@ -180,26 +180,17 @@ def build_parser() -> argparse.ArgumentParser:
                           "(default: 0)")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
     ptr.add_argument("--out", required=True, help="run folder")
-    ptr.add_argument("--epochs", type=POSITIVE, help=f"default: {PPOConfig.epochs}, the paper's (a resumed run: "
-                                                     "its own; more extends it)")
     ptr.add_argument("--num-envs", type=POSITIVE, help=f"parallel worlds (default: {PPOConfig.num_envs})")
-    ptr.add_argument("--seed", type=int, help=f"default: {PPOConfig.seed}")
     ptr.add_argument("--seeds", help="several seeds as one program (e.g. 0,1,2), each in OUT/seed_N; sharded over "
                                      "the devices when they divide the count")
     ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"], help=f"default: {PPOConfig.lr_schedule}")
-    ptr.add_argument("--save-every", type=POSITIVE,
-                     help=f"epochs between checkpoints (default: {SAVE_EVERY}; a resumed run: its own)")
     ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
-    ptr.add_argument("--robust-every", type=NONNEGATIVE,
-                     help="epochs between robustness evaluations that select best_robust (0: off; default: "
-                          f"{ROBUST_EVERY}; a resumed run: its own)")
     ptr.add_argument("--quiet", action="store_true")
     ptr.add_argument("--wandb", metavar="PROJECT", help="also log the scalars to this Weights & Biases project (the "
                                                          "wandb extra; WANDB_MODE=offline keeps them local)")
     _add_backend_args(ptr)
-    # the engine and the run's own flags stand above; the effector is the parallel-jaw primitive's, not a policy's
-    add_config_args(ptr, skip=("task.backend", "task.impl", "ppo.epochs", "ppo.num_envs", "ppo.seed",
-                               "ppo.lr_schedule", "scene.effector"))
+    # the engine and the batch's flags stand above; the effector is the parallel-jaw primitive's, not a policy's
+    add_config_args(ptr, skip=("task.backend", "task.impl", "ppo.num_envs", "ppo.lr_schedule", "scene.effector"))
     ptr.set_defaults(func=cmd_train)
 
     pft = sub.add_parser("finetune", help="continue a trained run with a diagnostic preset (ARAM, Reconfig, ...)")
@@ -258,7 +249,7 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--seeds", default="0,1,2", help="training seeds, comma-separated")
     prp.add_argument("--methods", help="comma-separated rows of the main and ablation tables instead of the paper's "
                                        "(any method preset or controller)")
-    prp.add_argument("--epochs", type=POSITIVE, default=PPOConfig.epochs,
+    prp.add_argument("--epochs", type=POSITIVE, default=PAPER_EPOCHS,
                      help="base budget; the appendix epochs scale with it")
     prp.add_argument("--num-envs", type=POSITIVE, help=f"default: {PPOConfig.num_envs}")
     prp.add_argument("--episodes", type=POSITIVE, help="episodes per cell (default: the paper's 20 in its tables, "

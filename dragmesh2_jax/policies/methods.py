@@ -1,10 +1,13 @@
-"""Named methods of the paper (Tables 2 and 3) as presets over one network and one PPO: never code forks.
+"""Named methods of the paper (Tables 2 and 3) and beyond, each a set of overrides over one configuration tree (as
+MuJoCo Playground's ``config_overrides``): never code forks. An override maps a dotted path into a run's spec
+(``runs/spec.RunSpec``: ``task.*``, ``network.*``, ``ppo.*``, ``scene.*``, ``schedule.*``) to its value; a new
+method is one entry in ``METHODS``, a new knob one field of a config dataclass.
 
 PICA = GLA temporal encoder + the physical signals: contact/saturation regularisers (r_bound, r_contact), damping
-randomisation and the causal-window auxiliary loss. Baselines use the same observation without the physical signals;
-the two ablations remove one PICA component each.
+randomisation and the causal-window auxiliary loss. Baselines use the same observation without the physical signals
+(``NO_PHYSICAL_SIGNALS``); the two ablations remove one PICA component each.
 
-Beyond the paper (its §5 asks for a richer contact interface), each a preset ablated against ``pica``: ``pica_force``
+Beyond the paper (its §5 asks for a richer contact interface), each ablated against ``pica``: ``pica_force``
 (contact-load sensors in s_t and in the history tokens), ``pica_priv`` (asymmetric critic that sees damping and contact
 load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), and ``pica_load``, which combines them
 and trains from perturbed starts, and ``pica_grip``: contact-load observation, privileged critic and a load-budget
@@ -18,83 +21,72 @@ method.
 
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.policies.networks import NetworkConfig
-from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig
+from dragmesh2_jax.task.config import Constraint, ResetNoise
 
-#: Which checkpoint stands for a run: ``best_robust``, the paper's selection by robustness during training (App.
-#: B.3-B.4; ``final`` where the run has none), or ``final``, its last epoch's.
-CHECKPOINT_RULES = ("best_robust", "final")
 #: The recipe's evaluation cells: its training range x1-x8 and x16 beyond it (out of its training distribution).
 RECIPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
 RECIPE_EPOCHS = 300  # twice the paper's budget: where it holds the validation doors at x1-x4 (RESULTS.md §3)
+
+#: The paper's baselines and ablation "w/o PICA": no r_bound / r_contact, nominal damping, no auxiliary loss.
+NO_PHYSICAL_SIGNALS: dict[str, Any] = {"task.reward.w_bound": 0.0, "task.reward.w_contact": 0.0,
+                                       "task.damping_range": (1.0, 1.0), "ppo.aux_weight": 0.0}
+#: PICA-Hold: privileged critic, damping randomised over [1, 8] (the evaluation's x8 inside the training range),
+#: perturbed starts.
+HOLD: dict[str, Any] = {"network.critic": "privileged", "task.damping_range": (1.0, 8.0),
+                        "task.reset_noise": ResetNoise()}
+#: Contact-load sensors (wrist F/T, palm and phalanx touch) in s_t and in every history token.
+FORCE_OBS: dict[str, Any] = {"task.force_obs": True}
 
 
 @dataclass(frozen=True)
 class Method:
     name: str
-    encoder: str  # none | flat | gla | gru | transformer
-    physical_signals: bool  # r_bound + r_contact, damping randomisation, aux loss
     description: str
-    critic: str = "shared"  # shared (paper) | privileged
-    force_obs: bool = False  # contact-load sensors in s_t and in every history token
-    damping_range: tuple[float, float] | None = None  # training range; None: the paper's [1, 2]
-    reset_noise: bool = False  # train from perturbed expert grasps (TaskConfig.reset_noise)
-    w_load: float = 0.0  # the load-budget reward (RewardConfig.w_load)
-    constraints: tuple[Constraint, ...] = ()  # CMDP constraints (RewardConfig.constraints)
-    lagrangian: str = "plain"  # how they enter the reward (RewardConfig.lagrangian)
-    network: NetworkConfig = field(default_factory=NetworkConfig)  # the actor-critic's sizes
-    epochs: int | None = None  # its training budget (None: the paper's, PPOConfig.epochs)
-    checkpoint: str = "best_robust"  # the checkpoint that stands for its runs: best_robust (paper) | final
-    dampings: tuple[float, ...] | None = None  # the damping cells it is evaluated at (None: the paper's x1/x2/x4)
-
-    def __post_init__(self):
-        if self.checkpoint not in CHECKPOINT_RULES:
-            raise DragMeshError(f"checkpoint rule must be one of {', '.join(CHECKPOINT_RULES)}, got "
-                                f"{self.checkpoint!r}")
+    overrides: Mapping[str, Any]  # dotted path into a run's spec -> value (runs/spec.apply_overrides)
 
 
 METHODS = {m.name: m for m in (
-    Method("pica", "gla", True, "PICA: GLA contact-history encoder + physical signals (ours)"),
-    Method("state_only", "none", False, "state-only PPO: MLP on s_t"),
-    Method("flat_history", "flat", False, "flat-history PPO: s_t + flattened history"),
-    Method("gru", "gru", False, "GRU-PPO over the same history window"),
-    Method("transformer", "transformer", False, "Transformer-PPO (1 causal block) over the history window"),
-    Method("gla_only", "gla", False, "ablation w/o PICA: GLA encoder without the physical signals"),
-    Method("pica_flat", "flat", True, "ablation w/o GLA: physical signals with the flat-history encoder"),
-    Method("pica_force", "gla", True, "PICA + contact-load observation (wrist F/T, palm/phalanx touch)",
-           force_obs=True),
-    Method("pica_priv", "gla", True, "PICA + privileged critic (damping, friction, contact load)",
-           critic="privileged"),
-    Method("pica_d14", "gla", True, "PICA with damping randomised over [1, 4] (reference drand14)",
-           damping_range=(1.0, 4.0)),
-    Method("pica_load", "gla", True, "load-aware PICA: contact-load observation, privileged critic, damping "
-           "[1, 4], perturbed starts", critic="privileged", force_obs=True, damping_range=(1.0, 4.0),
-           reset_noise=True),
-    Method("pica_grip", "gla", True, "grip-aware PICA: contact-load observation, privileged critic and a load "
-           "budget reward (the arm's pull beyond what the grasp holds is penalised)", critic="privileged",
-           force_obs=True, w_load=5.0),
+    Method("pica", "PICA: GLA contact-history encoder + physical signals (ours)", {}),
+    Method("state_only", "state-only PPO: MLP on s_t", {**NO_PHYSICAL_SIGNALS, "network.encoder": "none"}),
+    Method("flat_history", "flat-history PPO: s_t + flattened history",
+           {**NO_PHYSICAL_SIGNALS, "network.encoder": "flat"}),
+    Method("gru", "GRU-PPO over the same history window", {**NO_PHYSICAL_SIGNALS, "network.encoder": "gru"}),
+    Method("transformer", "Transformer-PPO (1 causal block) over the history window",
+           {**NO_PHYSICAL_SIGNALS, "network.encoder": "transformer"}),
+    Method("gla_only", "ablation w/o PICA: GLA encoder without the physical signals", NO_PHYSICAL_SIGNALS),
+    Method("pica_flat", "ablation w/o GLA: physical signals with the flat-history encoder",
+           {"network.encoder": "flat"}),
+    Method("pica_force", "PICA + contact-load observation (wrist F/T, palm/phalanx touch)", FORCE_OBS),
+    Method("pica_priv", "PICA + privileged critic (damping, friction, contact load)", {"network.critic": "privileged"}),
+    Method("pica_d14", "PICA with damping randomised over [1, 4] (reference drand14)",
+           {"task.damping_range": (1.0, 4.0)}),
+    Method("pica_load", "load-aware PICA: contact-load observation, privileged critic, damping [1, 4], perturbed "
+           "starts", {**FORCE_OBS, "network.critic": "privileged", "task.damping_range": (1.0, 4.0),
+                     "task.reset_noise": ResetNoise()}),
+    Method("pica_grip", "grip-aware PICA: contact-load observation, privileged critic and a load budget reward (the "
+           "arm's pull beyond what the grasp holds is penalised)",
+           {**FORCE_OBS, "network.critic": "privileged", "task.reward.w_load": 5.0}),
     # the project's recipes for holding a part under load (issue 20; RESULTS.md): trained where the load is
-    Method("hold", "gla", True, "PICA-Hold: contact-load observation, privileged critic, damping randomised over "
-           "[1, 8] (the evaluation's x8 inside the training range), perturbed starts", critic="privileged",
-           force_obs=True, damping_range=(1.0, 8.0), reset_noise=True),
-    Method("hold_grip", "gla", True, "PICA-Hold with the load-budget reward of pica_grip (the arm's pull beyond what "
-           "the grasp holds is penalised)", critic="privileged", force_obs=True, damping_range=(1.0, 8.0),
-           reset_noise=True, w_load=5.0),
-    Method("hold_cmdp", "gla", True, "PICA-Hold with the wrist load as a CMDP constraint: a Lagrange multiplier, "
-           "moved by dual ascent, weighs the pull beyond what the grasp holds", critic="privileged", force_obs=True,
-           damping_range=(1.0, 8.0), reset_noise=True, constraints=(Constraint(),)),
-    Method("hold_blind", "gla", True, "PICA-Hold without force or touch sensing (the paper's observation): "
-           "privileged critic, damping [1, 8], perturbed starts; trained twice the paper's budget and read at its "
-           "final checkpoint (best_robust's x1/x2/x4 saturates and keeps an early one: RESULTS.md §3)",
-           critic="privileged", damping_range=(1.0, 8.0), reset_noise=True, epochs=RECIPE_EPOCHS, checkpoint="final",
-           dampings=RECIPE_DAMPINGS),
-    Method("hold_blind_cmdp", "gla", True, "PICA-Hold without force or touch sensing and with the wrist load as a "
-           "CMDP constraint (the load is seen by the critic and the cost, never by the policy)",
-           critic="privileged", damping_range=(1.0, 8.0), reset_noise=True, constraints=(Constraint(),)),
+    Method("hold", "PICA-Hold: contact-load observation, privileged critic, damping randomised over [1, 8] (the "
+           "evaluation's x8 inside the training range), perturbed starts", {**HOLD, **FORCE_OBS}),
+    Method("hold_grip", "PICA-Hold with the load-budget reward of pica_grip (the arm's pull beyond what the grasp "
+           "holds is penalised)", {**HOLD, **FORCE_OBS, "task.reward.w_load": 5.0}),
+    Method("hold_cmdp", "PICA-Hold with the wrist load as a CMDP constraint: a Lagrange multiplier, moved by dual "
+           "ascent, weighs the pull beyond what the grasp holds",
+           {**HOLD, **FORCE_OBS, "task.reward.constraints": (Constraint(),)}),
+    Method("hold_blind", "PICA-Hold without force or touch sensing (the paper's observation): privileged critic, "
+           "damping [1, 8], perturbed starts; trained twice the paper's budget and read at its final checkpoint "
+           "(best_robust's x1/x2/x4 saturates and keeps an early one: RESULTS.md §3)",
+           {**HOLD, "schedule.epochs": RECIPE_EPOCHS, "schedule.checkpoint": "final",
+            "schedule.dampings": RECIPE_DAMPINGS}),
+    Method("hold_blind_cmdp", "PICA-Hold without force or touch sensing and with the wrist load as a CMDP constraint "
+           "(the load is seen by the critic and the cost, never by the policy)",
+           {**HOLD, "task.reward.constraints": (Constraint(),)}),
 )}
 #: ``--method recommended``: the project's best recipe (RESULTS.md says why), wherever a method is taken.
 RECOMMENDED = "hold_blind"
@@ -110,23 +102,3 @@ def resolve(name: str) -> str:
 
 def get_method(name: str) -> Method:
     return METHODS[resolve(name)]
-
-
-def task_overrides(method: Method) -> dict:
-    """TaskConfig changes for a method: without physical signals, no PICA reward terms and nominal damping;
-    the observation, damping range and start perturbation of the presets beyond the paper."""
-    out: dict = {}
-    if not method.physical_signals:
-        out = {"reward": RewardConfig(w_bound=0.0, w_contact=0.0), "damping_range": (1.0, 1.0)}
-    if method.damping_range is not None:
-        out["damping_range"] = method.damping_range
-    if method.force_obs:
-        out["force_obs"] = True
-    if method.reset_noise:
-        out["reset_noise"] = ResetNoise()
-    if method.w_load:
-        out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), w_load=method.w_load)
-    if method.constraints:
-        out["reward"] = dataclasses.replace(out.get("reward", RewardConfig()), constraints=method.constraints,
-                                            lagrangian=method.lagrangian)
-    return out

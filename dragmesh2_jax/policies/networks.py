@@ -37,8 +37,10 @@ CRITICS = ("shared", "privileged")
 
 @dataclass(frozen=True)
 class NetworkConfig:
-    """Sizes of the actor-critic (paper Table 8; design §6). A method carries one (``Method.network``)."""
+    """The actor-critic: its temporal encoder, its critic and its sizes (paper Table 8; design §6)."""
 
+    encoder: str = "gla"  # the history's temporal encoder (ENCODERS; none: state-only)
+    critic: str = "shared"  # the value head's input (CRITICS): the actor's features, or privileged
     state_sizes: tuple[int, ...] = (512, 512, 256)  # the state MLP
     hist_dim: int = 128  # z_hist
     heads: int = 4  # GLA / attention heads
@@ -46,6 +48,10 @@ class NetworkConfig:
     critic_sizes: tuple[int, ...] = (512, 256)  # the privileged critic's MLP
 
     def __post_init__(self):
+        if self.encoder not in ENCODERS:
+            raise DragMeshError(f"unknown temporal encoder {self.encoder!r} (choose from {', '.join(ENCODERS)})")
+        if self.critic not in CRITICS:
+            raise DragMeshError(f"unknown critic {self.critic!r} (choose from {', '.join(CRITICS)})")
         if min((*self.state_sizes, *self.critic_sizes, self.hist_dim, self.heads), default=1) < 1:
             raise DragMeshError(f"network sizes and heads must be >= 1, got state_sizes {self.state_sizes}, "
                                 f"critic_sizes {self.critic_sizes}, hist_dim {self.hist_dim}, heads {self.heads}")
@@ -105,21 +111,17 @@ class TemporalEncoder(nn.Module):
 
 
 class ActorCritic(nn.Module):
-    encoder: str = "gla"
     config: NetworkConfig = NetworkConfig()
     action_size: int = NUM_DOFS
     aux_size: int = 4
-    critic: str = "shared"
 
     def setup(self):
         c = self.config
         self.state_mlp = MLP(c.state_sizes)
-        if self.encoder != "none":
-            self.temporal = TemporalEncoder(self.encoder, c.hist_dim, c.heads)
+        if c.encoder != "none":
+            self.temporal = TemporalEncoder(c.encoder, c.hist_dim, c.heads)
         self.mu = Dense(self.action_size)
-        if self.critic not in CRITICS:
-            raise ValueError(f"unknown critic {self.critic!r}")
-        if self.critic == "privileged":
+        if c.critic == "privileged":
             self.critic_mlp = MLP(c.critic_sizes)
         self.value = Dense(1)
         self.log_std = self.param("log_std", nn.initializers.constant(c.log_std_init), (self.action_size,))
@@ -128,7 +130,7 @@ class ActorCritic(nn.Module):
 
     def features(self, state, history):
         z = self.state_mlp(state)
-        if self.encoder == "none":
+        if self.config.encoder == "none":
             return z, None
         h = self.temporal(history)
         return jnp.concatenate([z, h], axis=-1), h
@@ -136,7 +138,8 @@ class ActorCritic(nn.Module):
     def __call__(self, state, history, privileged):
         """-> (action mean (51), log std (51), value (), z_hist or None)."""
         fused, h = self.features(state, history)
-        v_in = self.critic_mlp(jnp.concatenate([state, privileged], -1)) if self.critic == "privileged" else fused
+        privileged_critic = self.config.critic == "privileged"
+        v_in = self.critic_mlp(jnp.concatenate([state, privileged], -1)) if privileged_critic else fused
         return self.mu(fused), self.log_std, self.value(v_in)[..., 0], h
 
     def actor(self, state, history):

@@ -1,4 +1,5 @@
-"""PPO configuration: paper Table 11 (and design §7 for what the table leaves out) as defaults."""
+"""PPO configuration: paper Table 11 (and design §7 for what the table leaves out) as defaults. How long a run
+trains and from which seed is its schedule (``runs/spec.Schedule``): a compiled program never reads them."""
 
 from __future__ import annotations
 
@@ -17,7 +18,6 @@ PAPER_EPOCHS = 150
 class PPOConfig:
     num_envs: int = 64
     rollout_len: int = 32
-    epochs: int = PAPER_EPOCHS  # training epochs (one rollout + update each)
     gamma: float = 0.99
     gae_lambda: float = 0.95
     lr: float = 3e-4
@@ -30,17 +30,16 @@ class PPOConfig:
     clip_value: bool = True
     entropy_coef: float = 0.0
     bounds_coef: float = 0.01  # c_b, actor bounds loss at |mu| > 1.1
-    aux_weight: float = 0.01  # w_aux after warm-up (Table 10)
+    aux_weight: float = 0.01  # w_aux after warm-up (Table 10); 0: no auxiliary loss
     aux_warmup: tuple[int, int] = (10, 40)  # w_aux = 0 before the first epoch, linear to aux_weight by the second
     aux_channel_weights: tuple[float, float, float, float] = (1.0, 1.0, 0.5, 0.5)
     max_grad_norm: float = 1.0
     normalize_obs: bool = True  # running mean/std of state and history tokens (Welford)
     normalize_advantage: bool = True
-    seed: int = 42
 
     def __post_init__(self):
-        if min(self.num_envs, self.rollout_len, self.epochs, self.update_epochs, self.num_minibatches) < 1:
-            raise DragMeshError("num_envs, rollout_len, epochs, update_epochs and num_minibatches must be >= 1")
+        if min(self.num_envs, self.rollout_len, self.update_epochs, self.num_minibatches) < 1:
+            raise DragMeshError("num_envs, rollout_len, update_epochs and num_minibatches must be >= 1")
         if (self.num_envs * self.rollout_len) % self.num_minibatches:
             raise DragMeshError(f"num_envs * rollout_len ({self.num_envs * self.rollout_len}) must divide into "
                                 f"{self.num_minibatches} minibatches")

@@ -1,12 +1,15 @@
 """The paper's diagnostic recipes (App. B.5-B.6; the reference's v2d/v2e configs, design §5 and §7) as presets:
 each continues a trained run from one of its checkpoints for ``epochs`` more epochs with a changed reward or
 damping range. Epochs count on from the checkpoint's (as rl_games restores epoch_num), so the aux warm-up
-stays finished. A preset never forks the code: it is a set of TaskConfig overrides."""
+stays finished. A preset never forks the code: it is a set of overrides over the parent run's configuration tree
+(dotted paths, as a method's: ``policies/methods.py``)."""
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
@@ -32,42 +35,32 @@ PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=1.0, lamb
 class Finetune:
     name: str
     description: str
-    epochs: int = 50  # the v2d fine-tunes' length
-    aram: AramConfig | None = None
-    reconfig: ReconfigConfig | None = None
-    damping_range: tuple[float, float] | None = None  # None: the run's own
-    constraints: tuple[Constraint, ...] = ()  # CMDP constraints added to the run's reward
-    lagrangian: str = "plain"  # how they enter it (RewardConfig.lagrangian)
+    overrides: Mapping[str, Any]  # dotted path into the parent run's spec -> value (runs/spec.apply_overrides)
+    epochs: int = 50  # how many epochs it adds (the v2d fine-tunes' length)
 
-    def task_overrides(self, reward) -> dict:
-        """TaskConfig changes on top of the run's ``reward`` config."""
-        out: dict = {}
-        if self.aram is not None or self.reconfig is not None:
-            reward = out["reward"] = dataclasses.replace(reward, aram=self.aram, reconfig=self.reconfig)
-        if self.constraints:
-            out["reward"] = dataclasses.replace(reward, constraints=self.constraints, lagrangian=self.lagrangian)
-        if self.damping_range is not None:
-            out["damping_range"] = self.damping_range
-        return out
 
+#: The fine-tunes' reward changes: ARAM and Reconfig set together (a recipe of one drops the other's).
+ARAM = {"task.reward.aram": AramConfig(), "task.reward.reconfig": None}
+RECONFIG = {"task.reward.aram": None, "task.reward.reconfig": ReconfigConfig()}
+BOTH = {"task.reward.aram": AramConfig(), "task.reward.reconfig": ReconfigConfig()}
 
 FINETUNES = {f.name: f for f in (
-    Finetune("continued", "continued training, nothing changed (paper Table 6)"),
-    Finetune("aram", "ARAM-lite: adaptive penalty on large actions that do not move the joint", aram=AramConfig()),
-    Finetune("reconfig", "Reconfig: bonus for regaining contact and response after a stall",
-             reconfig=ReconfigConfig()),
-    Finetune("both", "ARAM + Reconfig", aram=AramConfig(), reconfig=ReconfigConfig()),
+    Finetune("continued", "continued training, nothing changed (paper Table 6)", {}),
+    Finetune("aram", "ARAM-lite: adaptive penalty on large actions that do not move the joint", ARAM),
+    Finetune("reconfig", "Reconfig: bonus for regaining contact and response after a stall", RECONFIG),
+    Finetune("both", "ARAM + Reconfig", BOTH),
     Finetune("both_jointaware", "ARAM (joint-type-aware response test) + Reconfig",
-             aram=AramConfig(response="joint_aware"), reconfig=ReconfigConfig()),
-    Finetune("damp_1_4", "damping range [1, 4] (paper Table 7)", damping_range=(1.0, 4.0)),
-    Finetune("damp_1_2.5", "damping range [1, 2.5] (paper Table 7)", damping_range=(1.0, 2.5)),
-    Finetune("damp_2_4", "damping range [2, 4] (paper Table 7)", damping_range=(2.0, 4.0)),
+             {**BOTH, "task.reward.aram": AramConfig(response="joint_aware")}),
+    Finetune("damp_1_4", "damping range [1, 4] (paper Table 7)", {"task.damping_range": (1.0, 4.0)}),
+    Finetune("damp_1_2.5", "damping range [1, 2.5] (paper Table 7)", {"task.damping_range": (1.0, 2.5)}),
+    Finetune("damp_2_4", "damping range [2, 4] (paper Table 7)", {"task.damping_range": (2.0, 4.0)}),
     # beyond the paper (issue 33): the recipe's run held within a person's reach for as many epochs again
-    Finetune("plausible", "the palm's pace, the wrist load and saturation as CMDP constraints", epochs=PAPER_EPOCHS,
-             constraints=PLAUSIBLE, lagrangian="normalized"),
+    Finetune("plausible", "the palm's pace, the wrist load and saturation as CMDP constraints",
+             {"task.reward.constraints": PLAUSIBLE, "task.reward.lagrangian": "normalized"}, epochs=PAPER_EPOCHS),
     Finetune("plausible_cap100", "plausible with its multipliers capped at 100, not 20 (capped at 20, the costs were "
-             "still over budget and falling)", epochs=PAPER_EPOCHS, lagrangian="normalized",
-             constraints=tuple(dataclasses.replace(c, lambda_max=100.0) for c in PLAUSIBLE)),
+             "still over budget and falling)",
+             {"task.reward.constraints": tuple(dataclasses.replace(c, lambda_max=100.0) for c in PLAUSIBLE),
+              "task.reward.lagrangian": "normalized"}, epochs=PAPER_EPOCHS),
 )}
 
 

@@ -1,9 +1,9 @@
 """PPO for the pulling task as pure programs (PureJaxRL / Brax style).
 
-``make_train(task, method, config)`` gives a :class:`TrainProgram`: what one epoch is (the env without its data,
-the method with its network, the PPO config). It is hashable by what a compiled program depends on, so the jitted
-functions below take it as a static argument and jax's own cache compiles each program once: a second object of
-the same structure (``task.data``, an argument) or another seed reuses it.
+``make_train(task, network, config, name)`` gives a :class:`TrainProgram`: what one epoch is (the env without its
+data, the network config, the PPO config; the name is the method's, for display). It is hashable by what a compiled
+program depends on, so the jitted functions below take it as a static argument and jax's own cache compiles each
+program once: a second object of the same structure (``task.data``, an argument) or another seed reuses it.
 
   ``init(program, data, key) -> TrainState``             a new run's parameters, optimiser, worlds, normalisers
   ``epoch(program, data, ts) -> (ts, metrics)``          rollout (``lax.scan`` over the vmapped, auto-resetting
@@ -20,7 +20,6 @@ epoch's rollout and moved once per epoch.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,8 +34,7 @@ from flax import struct
 from dragmesh2_jax.physics.batch import map_batched
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.policies.gla import TokenWindows
-from dragmesh2_jax.policies.methods import Method
-from dragmesh2_jax.policies.networks import ActorCritic, make_inference_fn
+from dragmesh2_jax.policies.networks import ActorCritic, NetworkConfig, make_inference_fn
 from dragmesh2_jax.policies.normalize import RunningStats
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.losses import Batch, compute_gae, compute_ppo_loss, gaussian_logp
@@ -68,17 +66,17 @@ class TrainState:
 
 @dataclass(frozen=True, eq=False)
 class TrainProgram:
-    """The static part of training: ``task`` (its data is an argument of every program), ``method``, ``config``.
-    Equal (and hashed) by :meth:`signature`."""
+    """The static part of training: ``task`` (its data is an argument of every program), ``network``, ``config``
+and ``name`` (the method's, shown in progress and results). Equal (and hashed) by :meth:`signature`."""
 
     task: PullTask
-    method: Method
+    network: NetworkConfig
     config: PPOConfig
+    name: str
 
     @functools.cached_property
     def net(self) -> ActorCritic:
-        return ActorCritic(encoder=self.method.encoder, config=self.method.network, action_size=self.task.action_size,
-                           critic=self.method.critic)
+        return ActorCritic(config=self.network, action_size=self.task.action_size)
 
     @functools.cached_property
     def tx(self) -> optax.GradientTransformation:
@@ -87,13 +85,14 @@ class TrainProgram:
 
     @property
     def use_aux(self) -> bool:
-        return self.method.physical_signals and self.method.encoder != "none"
+        """The causal-window auxiliary loss: weighted, on a history feature (a state-only network has none)."""
+        return self.config.aux_weight > 0 and self.network.encoder != "none"
 
     @functools.cached_property
     def signature(self) -> tuple:
-        """What a compiled program depends on besides the object's data (the seed and the epoch count are inputs
-        or Python-side, so they are not part of it)."""
-        return self.method, self.net, dataclasses.replace(self.config, seed=0, epochs=1), self.task.signature()
+        """What a compiled program depends on besides the object's data (the seed is an input, the epoch count
+        Python-side: neither is in the configs)."""
+        return self.name, self.net, self.config, self.task.signature()
 
     def __hash__(self) -> int:
         return hash(self.signature)
@@ -113,11 +112,12 @@ class TrainProgram:
 
     def controller(self, ts: TrainState) -> Controller:
         """The trained policy of ``ts`` as the evaluator's controller."""
-        return Controller(self.method.name, self.make_policy, policy_params(ts), key=self.signature)
+        return Controller(self.name, self.make_policy, policy_params(ts), key=self.signature)
 
 
-def make_train(task: PullTask, method: Method, config: PPOConfig = PPOConfig()) -> TrainProgram:
-    return TrainProgram(task, method, config)
+def make_train(task: PullTask, network: NetworkConfig = NetworkConfig(), config: PPOConfig = PPOConfig(),
+               name: str = "pica") -> TrainProgram:
+    return TrainProgram(task, network, config, name)
 
 
 def policy_params(ts: TrainState) -> dict:
@@ -216,7 +216,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
     flat = lambda x: x.reshape(n, *x.shape[2:])  # noqa: E731
     obs = jax.tree.map(flat, traj["obs"])
     s_in, h_in, p_in = _inputs(program, ts, obs)
-    if program.method.encoder == "gla":  # each distinct history token through GLA's projections once
+    if program.network.encoder == "gla":  # each distinct history token through GLA's projections once
         norm = ts.token_stats.normalize if c.normalize_obs else (lambda x: x)
         h_in = TokenWindows.of_rollout(traj["obs"].history, traj["done"], norm)
     # values were predicted in the old value normalisation: re-express old predictions and targets in the new

@@ -21,8 +21,8 @@ from dragmesh2_jax.reproduce.planning import Eval, ReproduceConfig, Run, plan
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.commands import baseline_controllers, dataset_objects, finetune_run, load_run
 from dragmesh2_jax.runs.rundir import epoch_name
-from dragmesh2_jax.runs.session import Selection, start_or_resume
-from dragmesh2_jax.runs.spec import method_spec
+from dragmesh2_jax.runs.session import start_or_resume
+from dragmesh2_jax.runs.spec import ROBUST_EVERY, apply_overrides, method_spec
 from dragmesh2_jax.trajectory.dataset import build_dataset
 
 
@@ -30,32 +30,30 @@ def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
     folder = run.folder(out)
     if folder.trained_epochs() >= run.epochs:
         return
-    save_every = max(1, c.scaled(FINETUNE_EPOCHS) // 2)
     # main/ablation evaluate a base run's best_robust checkpoint; the appendix tables evaluate named epochs
-    selection = Selection() if run.parent is None else Selection(every=0)
-    kwargs = {"save_every": save_every, "selection": selection, "progress": False}
+    schedule = {"epochs": run.epochs, "seed": run.seed, "save_every": max(1, c.scaled(FINETUNE_EPOCHS) // 2),
+                "robust_every": ROBUST_EVERY if run.parent is None else 0}
+    ppo = {"num_envs": c.num_envs}
     if run.train_objects:  # no best_robust: the table reads the checkpoints along the budget
         objects, trajectories = _scaling_subset(c, out, run.train_objects)
-        spec = method_spec(run.method, objects, {"epochs": run.epochs, "num_envs": c.num_envs, "seed": run.seed},
-                           backend=c.backend)
-        start_or_resume(spec, [folder], trajectory=trajectories, epochs=run.epochs, progress=False,
-                        save_every=c.scaling_epochs[0], selection=Selection(every=0))
+        spec = method_spec(run.method, objects, ppo, backend=c.backend,
+                           schedule={**schedule, "save_every": c.scaling_epochs[0], "robust_every": 0})
+        start_or_resume(spec, [folder], trajectory=trajectories, progress=False)
     elif run.generalist:
         objects, trajectories = dataset_objects(_dataset(c, out))
-        spec = method_spec(run.method, objects, {"epochs": run.epochs, "num_envs": c.num_envs, "seed": run.seed},
-                           backend=c.backend, holdout=c.holdout)
-        start_or_resume(spec, [folder], trajectory=trajectories, epochs=run.epochs, **kwargs)
+        spec = method_spec(run.method, objects, ppo, backend=c.backend, holdout=c.holdout, schedule=schedule)
+        start_or_resume(spec, [folder], trajectory=trajectories, progress=False)
     elif run.parent is None:
-        spec = method_spec(run.method, run.object, {"epochs": run.epochs, "num_envs": c.num_envs, "seed": run.seed},
-                           backend=c.backend)
-        start_or_resume(spec, [folder], epochs=run.epochs, **kwargs)  # new, interrupted or extended
-    elif folder.exists() and folder.epoch_checkpoints():
-        start_or_resume(None, [folder], resume=True, epochs=run.epochs, **kwargs)  # the next stage
+        spec = method_spec(run.method, run.object, ppo, backend=c.backend, schedule=schedule)
+        start_or_resume(spec, [folder], progress=False)  # new, interrupted or extended
+    elif folder.exists() and folder.epoch_checkpoints():  # the next stage: the recorded fine-tune, longer
+        spec = apply_overrides(folder.spec(), {f"schedule.{k}": v for k, v in schedule.items()})
+        start_or_resume(spec, [folder], resume=True, progress=False)
     else:  # new, or stopped before its first checkpoint (started again)
         parent = run.parent.folder(out).checkpoint(epoch_name(run.parent.epochs))
         finetune_run(str(parent), run.recipe, str(folder.path), None if c.backend == "auto" else c.backend,
                      epochs=run.epochs - run.parent.epochs, object_dir=run.object if run.parent.generalist else None,
-                     **kwargs)
+                     schedule={k: schedule[k] for k in ("save_every", "robust_every")}, progress=False)
 
 
 def _dataset(c: ReproduceConfig, out: Path) -> Path:

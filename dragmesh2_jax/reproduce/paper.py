@@ -3,7 +3,7 @@ it), and the paper's numbers that its tables print beside ours."""
 
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW
 from dragmesh2_jax.baselines.tracking import TRACKING
-from dragmesh2_jax.policies.methods import CHECKPOINT_RULES
+from dragmesh2_jax.runs.spec import CHECKPOINT_RULES
 
 MAIN_METHODS = ("state_only", "flat_history", "gru", "transformer", "pica")  # paper Table 2, learned rows
 ABLATION_METHODS = ("gla_only", "pica_flat", "pica")  # paper Table 3

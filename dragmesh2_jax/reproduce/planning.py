@@ -34,6 +34,7 @@ from dragmesh2_jax.reproduce.paper import (
 )
 from dragmesh2_jax.runs.commands import baseline_controllers
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
+from dragmesh2_jax.runs.spec import method_defaults
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,8 @@ class ReproduceConfig:
         if self.methods is not None:  # "recommended" stands for the recipe (a row is labelled with its name)
             object.__setattr__(self, "methods", tuple(RECOMMENDED if m == "recommended" else m for m in self.methods))
         if self.dampings is None:
-            own = sorted({d for m in self.methods or () if m in METHODS for d in METHODS[m].dampings or ()})
+            own = sorted({d for m in self.methods or () if m in METHODS for d in method_defaults(m).schedule.dampings
+                          or ()})
             object.__setattr__(self, "dampings", tuple(own) or PAPER_DAMPINGS)
         known = [*baseline_controllers(), *METHODS]
         unknown = [m for m in self.methods or () if m not in known]
@@ -220,7 +222,7 @@ def plan(table: str, c: ReproduceConfig) -> list[Run | Eval]:
             for m in methods:
                 for s in c.seeds:
                     r = Run(obj, s, c.epochs, method=m)
-                    steps += [r, Eval(obj, r, c.checkpoint or METHODS[m].checkpoint, seed=s)]
+                    steps += [r, Eval(obj, r, c.checkpoint or method_defaults(m).schedule.checkpoint, seed=s)]
         return steps
     if table == "generalist":
         for m in generalist_methods(c):

@@ -69,7 +69,7 @@ def programs_of(spec: RunSpec, trajectories: TrajectoryArg | list[TrajectoryArg]
     checkpoints (None: the training env itself) and every object's task."""
     tasks = tasks_of(spec, trajectories)
     n = len(tasks) - spec.holdout
-    program = make_train(mix_of(tasks[:n]), spec.preset, spec.ppo)
+    program = make_train(mix_of(tasks[:n]), spec.network, spec.ppo, spec.method)
     return program, (mix_of(tasks[n:]) if spec.holdout else None), tasks
 
 

@@ -15,7 +15,7 @@ from dragmesh2_jax.baselines import tracking
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
 from dragmesh2_jax.errors import DragMeshError, NotSaved, NotWritable
 from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES, envelope, evaluate, markdown_table
-from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
+from dragmesh2_jax.evaluation.protocol import PAPER, SELECTION, EvalProtocol
 from dragmesh2_jax.io import os_error_line
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint
@@ -24,8 +24,8 @@ from dragmesh2_jax.ppo.train import TrainProgram, TrainState, init_jit, seed_key
 from dragmesh2_jax.render import render_policy_video, render_pose, render_trajectory_gif
 from dragmesh2_jax.runs.build import load_task, program_of
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
-from dragmesh2_jax.runs.spec import RunSpec, finetune_spec, method_spec
+from dragmesh2_jax.runs.session import RESCHEDULABLE, start_or_resume
+from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_spec
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import contact_budget, reset_starts
@@ -96,41 +96,45 @@ DEFAULT_METHOD = "pica"  # what ``train`` trains when no --method is given
 def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str | None = None,
               backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
               task_changes: dict | None = None, scene_changes: dict | None = None,
-              network_changes: dict | None = None, selection: Selection | None = None,
-              save_every: int | None = None, progress: bool = True, wandb: str | None = None,
-              holdout: int | None = None,
+              network_changes: dict | None = None, schedule_changes: dict | None = None, progress: bool = True,
+              wandb: str | None = None, holdout: int | None = None,
               **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
-    record (``resume``: ``ppo["epochs"]`` extends it; a method, object or config value that differs from the record
-    is refused); ``object_dir`` a list: one policy over several objects, the last ``holdout`` held aside for
-    checkpoint selection. Returns (program, [(seed, log rows)])."""
+    record (``resume``: a longer ``schedule_changes["epochs"]`` extends it and other checkpoint or robustness
+    intervals revise it; a method, object or any other config value that differs from the record is refused);
+    ``object_dir`` a list: one policy over several objects, the last ``holdout`` held aside for checkpoint
+    selection. Returns (program, [(seed, log rows)])."""
     if seeds is not None and not seeds:
         raise DragMeshError("--seeds: no seeds given")
     runs = [RunDir(Path(out) / f"seed_{s}") for s in seeds] if seeds else [RunDir(out)]
+    schedule_changes = schedule_changes or {}
     if resume:
         if trajectory is not None:
             raise DragMeshError(f"{out}: --resume continues the run on the trajectories it keeps; drop --trajectory")
-        _check_resume(runs, method, object_dir, {k: v for k, v in ppo.items() if k != "epochs"},
-                      task_changes, scene_changes, network_changes, holdout)
-        program, _, logs = start_or_resume(None, runs, resume=True, epochs=ppo.get("epochs"), backend=backend,
-                                           impl=impl, save_every=save_every, selection=selection, progress=progress,
+        _check_resume(runs, method, object_dir, ppo, task_changes, scene_changes, network_changes,
+                      {k: v for k, v in schedule_changes.items() if k not in RESCHEDULABLE}, holdout)
+        given = None  # the recorded runs as they are, or under the schedule the flags give
+        rescheduled = {f"schedule.{k}": v for k, v in schedule_changes.items() if k in RESCHEDULABLE}
+        if rescheduled and runs[0].exists():
+            given = apply_overrides(runs[0].spec(), rescheduled)
+        program, _, logs = start_or_resume(given, runs, resume=True, backend=backend, impl=impl, progress=progress,
                                            wandb=wandb)
-        return program, [(r.spec().ppo.seed, rows) for r, rows in zip(runs, logs, strict=True)]
+        return program, [(r.spec().schedule.seed, rows) for r, rows in zip(runs, logs, strict=True)]
     spec = method_spec(method or DEFAULT_METHOD, object_dir, ppo, task_changes, scene_changes, backend, impl,
-                       network_changes, holdout or 0)
-    program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, save_every=save_every,
-                                       selection=selection, progress=progress, wandb=wandb)
-    return program, list(zip(seeds or [spec.ppo.seed], logs, strict=True))
+                       network_changes, holdout or 0, schedule_changes)
+    program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, progress=progress, wandb=wandb)
+    return program, list(zip(seeds or [spec.schedule.seed], logs, strict=True))
 
 
 def _check_resume(runs: list[RunDir], method: str | None, object_dir, ppo: dict, task: dict | None,
-                  scene: dict | None, network: dict | None, holdout: int | None) -> None:
+                  scene: dict | None, network: dict | None, schedule: dict, holdout: int | None) -> None:
     """A resume continues the recorded runs exactly: flags that would change one are refused, saying what differs."""
     for run in runs:
         if not run.exists():
             continue  # start_or_resume says there is nothing to resume
         spec = run.spec()
-        differ = spec.differences(method, object_dir, ppo=ppo, task=task, scene=scene, network=network)
+        differ = spec.differences(method, object_dir, ppo=ppo, task=task, scene=scene, network=network,
+                                  schedule=schedule)
         if holdout is not None and holdout != spec.holdout:
             differ.append(f"holdout {holdout} (recorded {spec.holdout})")
         if differ:
@@ -160,7 +164,7 @@ def dataset_objects(folder: str | Path) -> tuple[list[str], list[str]]:
 def run_dampings(checkpoint: str | Path) -> tuple[float, ...]:
     """The damping cells a run is evaluated at by default: its method's (the recipe's x1-x16), else the paper's."""
     run, _ = RunDir.of_checkpoint(checkpoint)
-    return run.spec().preset.dampings or PAPER.dampings
+    return run.spec().schedule.dampings or PAPER.dampings
 
 
 def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "jax", keep_env: bool = True,
@@ -179,11 +183,11 @@ def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "ja
     trained_on = run.backend
     trajectories = trajectories or run.trajectories()
     program = program_of(spec.on(backend or trained_on, impl), trajectories)
-    fresh = init_jit(program, program.data(), seed_keys([spec.ppo.seed])[0])
+    fresh = init_jit(program, program.data(), seed_keys([spec.schedule.seed])[0])
     if program.task.backend.name == trained_on:
         return program, load_checkpoint(fresh, ck, keep_env=keep_env), run, ck
     source = program_of(spec.on(trained_on, impl), trajectories)
-    src = load_checkpoint(init_jit(source, source.data(), seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
+    src = load_checkpoint(init_jit(source, source.data(), seed_keys([spec.schedule.seed])[0]), ck, keep_env=True)
     return program, fresh.replace(params=src.params, state_stats=src.state_stats, token_stats=src.token_stats,
                                   aux_stats=src.aux_stats, privileged_stats=src.privileged_stats,
                                   value_stats=src.value_stats, epoch=src.epoch, aram_lambda=src.aram_lambda,
@@ -196,26 +200,28 @@ def on_object(spec: RunSpec, object_dir: str) -> RunSpec:
 
 
 def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "jax",
-                 epochs: int | None = None, selection: Selection = Selection(), save_every: int = 10,
+                 epochs: int | None = None, schedule: dict | None = None, selection: EvalProtocol = SELECTION,
                  progress: bool = True, object_dir: str | None = None,
                  trajectory: str | None = None) -> tuple[Path, list[dict]]:
     """A fine-tune preset continuing a trained run from ``checkpoint`` for the preset's epochs (or ``epochs``),
     counted on from the checkpoint's epoch, into ``out`` (on ``object_dir`` instead of the run's objects: a policy
-    trained over several objects fine-tuned onto a new one); returns (parent checkpoint, log rows)."""
+    trained over several objects fine-tuned onto a new one), under the run's schedule with ``schedule``'s fields
+    (``save_every``, ``robust_every``, ...) changed; ``selection``: the robustness checks' protocol. Returns (parent
+    checkpoint, log rows)."""
     more = get_finetune(recipe).epochs if epochs is None else epochs
     if more < 1:
         raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")
     parent, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
     spec = finetune_spec(run.spec().on(parent.task.backend.name, impl), recipe, str(ck.resolve()),
-                         int(ts.epoch) + more)
+                         int(ts.epoch) + more, schedule)
     trajectories = run.trajectories()
     if object_dir:
         spec, trajectories = on_object(spec, object_dir), [trajectory]
     program = program_of(spec, trajectories)
-    start = load_checkpoint(init_jit(program, program.data(), seed_keys([spec.ppo.seed])[0]), ck, keep_env=True)
+    start = load_checkpoint(init_jit(program, program.data(), seed_keys([spec.schedule.seed])[0]), ck,
+                            keep_env=True)
     _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=[t.traj for t in tasks_of_program(program)],
-                                 resume=False, start=start, save_every=save_every, selection=selection,
-                                 progress=progress)
+                                 resume=False, start=start, selection=selection, progress=progress)
     return ck, logs[0]
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import dataclasses
 import io
 import json
 import shutil
@@ -30,7 +31,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import LOCK_NAME, atomic_write_json, atomic_write_text, folder_lock
 from dragmesh2_jax.ppo.checkpoint import is_checkpoint
-from dragmesh2_jax.runs.spec import RunSpec
+from dragmesh2_jax.runs.spec import RECORD_FORMAT, RunSpec, Schedule
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory, write_trajectory
 
 #: Checkpoints a run offers as its policy, in the order they are preferred.
@@ -111,14 +112,12 @@ class RunDir:
     def spec(self) -> RunSpec:
         return RunSpec.from_record(self.record(), where=str(self.record_path))
 
-    def revise(self, spec: RunSpec) -> None:
-        """A resume that trains further or checks otherwise: the record's schedule (epochs, save and robustness
-        intervals) becomes ``spec``'s, rewritten whole and atomically; the rest of the record stands."""
-        record = dict(self.record())
-        record["ppo"] = {**record["ppo"], "epochs": spec.ppo.epochs}
-        record["schedule"] = {"save_every": spec.save_every, "robust_every": spec.robust_every,
-                              "checkpoint": spec.checkpoint}
-        atomic_write_json(self.record_path, record)
+    def revise(self, schedule: Schedule) -> None:
+        """A resume that trains further or saves and checks otherwise: the record's schedule becomes ``schedule``,
+        rewritten whole and atomically in the current format (a record of an earlier one upgraded as it reads); the
+        rest of the record stands."""
+        spec = dataclasses.replace(self.spec(), schedule=schedule)
+        atomic_write_json(self.record_path, {**self.record(), "format": RECORD_FORMAT, **spec.sections()})
         self._record = None
 
     @property
@@ -157,9 +156,9 @@ class RunDir:
         return out
 
     def policy_checkpoint(self) -> Path:
-        """The checkpoint that stands for the run's policy, by its method's rule (``spec.checkpoint``):
+        """The checkpoint that stands for the run's policy, by its method's rule (``spec.schedule.checkpoint``):
         ``best_robust`` (else ``final``, for a run that had no robustness check), or ``final``."""
-        rule = self.spec().checkpoint
+        rule = self.spec().schedule.checkpoint
         for name in (CHECKPOINT_PREFERENCE if rule == "best_robust" else (rule,)):
             if self.has_checkpoint(name):
                 return self.checkpoint(name)

@@ -14,7 +14,6 @@ import dataclasses
 import hashlib
 import sys
 import time
-from dataclasses import dataclass
 
 import numpy as np
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -40,29 +39,20 @@ from dragmesh2_jax.ppo.train import (
 from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.runs.build import programs_of
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
-from dragmesh2_jax.runs.spec import ROBUST_EVERY, RunSpec
+from dragmesh2_jax.runs.spec import RunSpec, Schedule
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 
-@dataclass(frozen=True)
-class Selection:
-    """Checkpoint selection by robustness during training: every ``every`` epochs (0: off) the det policy runs the
-    selection protocol, and ``best_robust`` keeps the best by mean, then worst success, ties by lower active
-    clip099."""
-
-    every: int = ROBUST_EVERY
-    protocol: EvalProtocol = SELECTION
-
-    @staticmethod
-    def score(row: dict) -> tuple:
-        return row["mean_success"], row["worst_success"], -row["clip099_active"]
+def robust_score(row: dict) -> tuple:
+    """How the robustness checks rank (checkpoint selection, paper App. B.3-B.4): ``best_robust`` keeps the best by
+    mean, then worst success, ties by lower active clip099."""
+    return row["mean_success"], row["worst_success"], -row["clip099_active"]
 
 
-def selection_check(program: TrainProgram, selection: Selection, heldout=None):
-    """``ts -> row``: det success per damping of the selection protocol (its own starts) on the training env, or on
-    ``heldout`` (a run's held-aside objects: each world draws one), and the physical figures of its worst damping
-    (the largest over the dampings), one parallel rollout compiled once per program signature."""
-    p = selection.protocol
+def selection_check(program: TrainProgram, p: EvalProtocol = SELECTION, heldout=None):
+    """``ts -> row``: det success per damping of the selection protocol ``p`` (its own starts) on the training env,
+    or on ``heldout`` (a run's held-aside objects: each world draws one), and the physical figures of its worst
+    damping (the largest over the dampings), one parallel rollout compiled once per program signature."""
     task, policy, dampings = p.task(heldout or program.task), program.make_policy(True), list(p.dampings)
 
     def check(ts: TrainState) -> dict:
@@ -114,54 +104,59 @@ class _Progress:
 
 def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] | None = None,
                     trajectory: str | Trajectory | None = None, resume: bool | None = None,
-                    start: TrainState | None = None, epochs: int | None = None, backend: str | None = None,
-                    impl: str = "jax", save_every: int | None = None, selection: Selection | None = None,
-                    progress: bool = True, log_fn=None, wandb: str | None = None
+                    start: TrainState | None = None, backend: str | None = None, impl: str = "jax",
+                    selection: EvalProtocol = SELECTION, progress: bool = True, log_fn=None, wandb: str | None = None
                     ) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
-    """Train the runs in ``runs`` (one per seed, as one program) to ``epochs`` (default: the spec's), holding each
-    run folder's lock throughout (a second writer is one error line).
+    """Train the runs in ``runs`` (one per seed, as one program) to their schedule's epochs, holding each run
+    folder's lock throughout (a second writer is one error line).
 
-    ``resume``: True continues the runs exactly from their newest common checkpoint (their records define them:
-    ``spec`` may be None); False starts new runs of ``spec`` (a folder that holds a run with a checkpoint is an
-    error); None resumes when every folder has a checkpoint and starts otherwise. A run stopped before its first
-    checkpoint, whatever stopped it, starts again either way (resumed, from its record). ``start``: a fine-tune's
-    first state (one run). ``backend``: resume on this engine instead of the recorded task's. ``save_every`` and
-    ``selection.every``: the checkpoint and robustness intervals (None: the spec's, or a resumed run's own); a
-    resume to more epochs or with other intervals revises the record's schedule. ``wandb``: a W&B project that
-    gets the same scalars as TensorBoard. Returns the program, the final state (leading run axis) and each run's log
-    rows."""
-    seeds = list(seeds) if seeds is not None else [spec.ppo.seed] if spec else None
+    ``resume``: True continues the runs exactly from their newest common checkpoint (their records define them);
+    False starts new runs of ``spec`` (a folder that holds a run with a checkpoint is an error); None resumes when
+    every folder has a checkpoint and starts otherwise. A run stopped before its first checkpoint, whatever stopped
+    it, starts again either way (resumed, from its record). A resumed run takes the schedule of ``spec`` where one
+    is given (None: its own): its epochs (more extend the run) and its checkpoint and robustness intervals, revised
+    in its record; the rest of the record stands. ``start``: a fine-tune's first state (one run). ``backend``:
+    resume on this engine instead of the recorded task's. ``selection``: the protocol of the robustness checks
+    that keep ``best_robust`` (every ``schedule.robust_every`` epochs). ``wandb``: a W&B project that gets the same
+    scalars as TensorBoard. Returns the program, the final state (leading run axis) and each run's log rows."""
+    if seeds is None and spec is not None and not resume:  # a resume trains the seeds its runs recorded
+        seeds = [spec.schedule.seed]
     if not runs or (seeds is not None and len(seeds) != len(runs)):
         raise DragMeshError("one run folder per seed, at least one")
     if start is not None and len(runs) != 1:
         raise DragMeshError("a fine-tune continues one run, not several seeds")
-    if save_every is not None and save_every < 1:
-        raise DragMeshError(f"save_every must be >= 1, got {save_every}")
     if wandb:
         wandb_module()  # before anything is written: a missing extra leaves no folder behind
     with contextlib.ExitStack() as locks:
         for r in runs:
             locks.enter_context(r.writing())
-        return _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backend, impl, save_every,
-                                selection, progress, log_fn, wandb)
+        return _start_or_resume(spec, runs, seeds, trajectory, resume, start, backend, impl, selection, progress,
+                                log_fn, wandb)
 
 
-def _scheduled(spec: RunSpec, epochs: int | None, save_every: int | None, selection: Selection | None) -> RunSpec:
-    """``spec`` with the schedule a command asks for (None: as it is)."""
-    return dataclasses.replace(
-        spec, ppo=dataclasses.replace(spec.ppo, epochs=epochs or spec.ppo.epochs),
-        save_every=save_every or spec.save_every,
-        robust_every=spec.robust_every if selection is None else selection.every)
+#: What a resume may change of a run's schedule: its length (more epochs extend it), checkpoint and robustness
+#: intervals. Its seed and how it is read stand with the rest of the record.
+RESCHEDULABLE = ("epochs", "save_every", "robust_every")
 
 
-def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backend, impl, save_every, selection,
-                     progress, log_fn, wandb):
+def _continued(recorded: RunSpec, given: RunSpec | None) -> RunSpec:
+    """A recorded run under the schedule a command gives (None: its own), as far as a resume may change it."""
+    if given is None:
+        return recorded
+    return dataclasses.replace(recorded, schedule=dataclasses.replace(
+        recorded.schedule, **{k: getattr(given.schedule, k) for k in RESCHEDULABLE}))
+
+
+def _start_or_resume(given, runs, seeds, trajectory, resume, start, backend, impl, selection, progress, log_fn,
+                     wandb):
     recorded = all(r.exists() for r in runs)
     common = _resume_epoch(runs) if recorded else None
+    spec = given
     if resume and common is None:
         if not recorded:
             raise DragMeshError(f"{runs[0].path}: nothing to resume (no run.json; start the run without --resume)")
-        spec, seeds = runs[0].spec(), [r.spec().ppo.seed for r in runs]  # stopped before its first checkpoint
+        # stopped before its first checkpoint
+        spec, seeds = _continued(runs[0].spec(), given), [r.spec().schedule.seed for r in runs]
         if spec.parent is not None and start is None:
             raise DragMeshError(f"{runs[0].path}: a fine-tune stopped before its first checkpoint: run its finetune "
                                 "command again (it starts from its parent's checkpoint)")
@@ -171,30 +166,29 @@ def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backe
         resume = common is not None
     if resume and common is not None:
         recorded_spec = runs[0].spec()
-        spec = recorded_spec.on(backend, impl) if backend else recorded_spec
-        seeds = [r.spec().ppo.seed for r in runs]
+        seeds = [r.spec().schedule.seed for r in runs]
         for r in runs[1:]:  # seeds of one program: the same run but for the seed
             if r.spec().with_seed(seeds[0]) != recorded_spec:
                 raise DragMeshError(f"{r.path}: its record differs from {runs[0].path}'s in more than the seed: not "
                                     "seeds of one run, so they cannot resume as one program")
+        spec = _continued(recorded_spec, given)
         done = max(common, max(r.trained_epochs() for r in runs))
-        if epochs is not None and epochs < done:
-            raise DragMeshError(f"{runs[0].path}: already trained {done} epochs; --epochs {epochs} would undo "
-                                "them (give more epochs to extend the run)")
+        if spec.schedule.epochs < done:
+            raise DragMeshError(f"{runs[0].path}: already trained {done} epochs; --epochs {spec.schedule.epochs} "
+                                "would undo them (give more epochs to extend the run)")
+        spec = spec.on(backend, impl) if backend else spec
         program, heldout, _ = programs_of(spec, runs[0].trajectories())
         template = init_jit(program, program.data(), seed_keys(seeds[:1])[0])
         states = [_restore(template, r.epoch_checkpoints()[common]) for r in runs]
         ts = stack_runs(states)
         rows = [r.log_rows(common) for r in runs]
         robust_rows = [r.robust_rows(common) for r in runs]
-        spec = _scheduled(spec, max(epochs or 0, recorded_spec.ppo.epochs), save_every, selection)
-        if spec.schedule != recorded_spec.schedule:
-            for r in runs:
-                r.revise(spec)
+        for r in runs:  # each keeps its own seed
+            if (schedule := _continued(r.spec(), given).schedule) != r.spec().schedule:
+                r.revise(schedule)
     else:
         if spec is None:
             raise DragMeshError("a new run needs its spec")
-        spec = _scheduled(spec, max(epochs or 0, spec.ppo.epochs), save_every, selection)
         for r in runs:
             if r.exists() and r.epoch_checkpoints():
                 raise DragMeshError(f"{r.path}: already holds a run (use --resume, or another --out)")
@@ -205,22 +199,20 @@ def _start_or_resume(spec, runs, seeds, trajectory, resume, start, epochs, backe
                     buffers=None if budget is None else budget.to_json())
         ts = init_runs(program, program.data(len(seeds)), seed_keys(seeds)) if start is None else stack_runs([start])
         rows, robust_rows = [[] for _ in runs], [[] for _ in runs]
-    target = epochs or spec.ppo.epochs
-    selection = Selection(every=spec.robust_every, protocol=(selection or Selection()).protocol)
-    ts = _loop(program, runs, ts, rows, robust_rows, target, resume, spec.save_every, selection, progress, log_fn,
-               wandb, heldout)
+    ts = _loop(program, runs, ts, rows, robust_rows, spec.schedule, resume, selection, progress, log_fn, wandb,
+               heldout)
     return program, ts, rows
 
 
 def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[list[dict]],
-          robust_rows: list[list[dict]], epochs: int, resumed: bool, save_every: int, selection: Selection,
+          robust_rows: list[list[dict]], schedule: Schedule, resumed: bool, selection: EvalProtocol,
           progress: bool, log_fn, wandb: str | None, heldout=None) -> TrainState:
-    c = program.config
-    check = selection_check(program, selection, heldout) if selection.every > 0 else None
+    c, epochs, save_every, robust_every = program.config, schedule.epochs, schedule.save_every, schedule.robust_every
+    check = selection_check(program, selection, heldout) if robust_every > 0 else None
     first = int(ts.epoch[0])
     best = [max((r["reward"] for r in rr), default=-np.inf) for rr in rows]
-    best_robust = [max((selection.score(r) for r in rr), default=None) for rr in robust_rows]
-    name = program.method.name + (f" x {len(runs)} seeds" if len(runs) > 1 else "")
+    best_robust = [max((robust_score(r) for r in rr), default=None) for rr in robust_rows]
+    name = program.name + (f" x {len(runs)} seeds" if len(runs) > 1 else "")
     bar = _Progress(f"train {name}", epochs, first, progress)
     t_start = time.time() - (rows[0][-1]["seconds"] if rows[0] else 0.0)  # a resumed run's clock goes on
     with bar.bar, contextlib.ExitStack() as stack:
@@ -236,7 +228,7 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
                 run.write_log(rows[i])
                 boards[i].write("train", row)
                 improved = row["reward"] > best[i]
-                robust_due = check is not None and (e % selection.every == 0 or e == epochs)
+                robust_due = check is not None and (e % robust_every == 0 or e == epochs)
                 kept = e % save_every == 0 or e == epochs  # the last epoch too: a finished run can be extended
                 if kept or improved or robust_due:  # this run's state, only when it is needed
                     one = take_run(ts, i)
@@ -247,9 +239,9 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
                     save_checkpoint(one, run.checkpoint("best"))
                 if robust_due:
                     r = check(one)
-                    r["selected"] = best_robust[i] is None or selection.score(r) > best_robust[i]
+                    r["selected"] = best_robust[i] is None or robust_score(r) > best_robust[i]
                     if r["selected"]:
-                        best_robust[i] = selection.score(r)
+                        best_robust[i] = robust_score(r)
                         save_checkpoint(one, run.checkpoint("best_robust"))
                     robust_rows[i].append(r)
                     run.write_robust(robust_rows[i])

@@ -1,24 +1,32 @@
-"""What a run is, apart from how it is computed: :class:`RunSpec`, the method, the object, every config it trains
-with (task, scene, PPO, network), and for a fine-tune its recipe and the checkpoint it continues. A spec is made
-once from a method preset (:func:`method_spec`) or a fine-tune (:func:`finetune_spec`), written into the run's
-record, and read back whole for resume, evaluation and fine-tunes.
+"""What a run is, apart from how it is computed: :class:`RunSpec`, one tree of frozen configs: the method, the
+object, every config it trains with (task, scene, PPO, network), its :class:`Schedule` (how long, from which seed,
+how often it saves and checks, which checkpoint stands for it and where it is evaluated) and for a fine-tune its
+recipe and the checkpoint it continues. A spec is made once from a method (:func:`method_spec`: the defaults, the
+method's overrides, then the command's) or a fine-tune (:func:`finetune_spec`: the parent's spec with the recipe's
+overrides), written into the run's record, and read back whole for resume, evaluation and fine-tunes. Methods and
+fine-tunes are override sets, dotted paths into this tree (:func:`apply_overrides`).
 
-The record (``run.json``, format 3): ``format``, ``method``, ``object``, ``finetune``, ``parent``, ``backend``
-(the engine it trained on), ``ppo``, ``task``, ``scene``, ``network`` and ``versions``. Format 2 (no ``network``:
-the default sizes) is read too.
+The record (``run.json``, format 4): ``format``, ``method``, ``object``, ``objects``, ``holdout``, ``finetune``,
+``parent``, ``backend`` (the engine it trained on), ``buffers``, ``schedule``, ``ppo``, ``task``, ``scene``,
+``network`` and ``versions``. Formats 2 and 3 are read too: their ``ppo`` held the epochs and the seed (moved to the
+schedule); what they did not record (the network's encoder and critic, the schedule's checkpoint rule and evaluation
+cells, and in format 2 the network's sizes and the schedule's intervals) is the recorded method's.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import hash_files
-from dragmesh2_jax.policies.methods import CHECKPOINT_RULES, Method, get_method, resolve, task_overrides
+from dragmesh2_jax.policies.methods import get_method, resolve
 from dragmesh2_jax.policies.networks import NetworkConfig
-from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
 from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict, versions
 from dragmesh2_jax.scene import SceneConfig
@@ -26,9 +34,39 @@ from dragmesh2_jax.task.config import TaskConfig
 
 SAVE_EVERY = 10  # epochs between a run's checkpoints
 ROBUST_EVERY = 10  # epochs between the robustness checks that select best_robust (paper App. B.3)
-RECORD_FORMAT = 3  # 3: the network config; 2: without it (the default sizes)
-READABLE_FORMATS = (2, 3)
+#: Which checkpoint stands for a run: ``best_robust``, the paper's selection by robustness during training (App.
+#: B.3-B.4; ``final`` where the run has none), or ``final``, its last epoch's.
+CHECKPOINT_RULES = ("best_robust", "final")
+RECORD_FORMAT = 4  # 4: the schedule whole, the network's encoder and critic; 3: the network's sizes; 2: neither
+READABLE_FORMATS = (2, 3, 4)
 RECORD_KEYS = ("method", "object", "ppo", "task")  # what every record must have
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """How a run is driven around its compiled epochs (no program reads it): its length, its seed, when it saves and
+    checks, and how it is read afterwards."""
+
+    epochs: int = PAPER_EPOCHS  # training epochs (one rollout + update each); a resume to more extends the run
+    seed: int = 42  # the run's seed: its parameters, worlds and sampled actions
+    save_every: int = SAVE_EVERY  # epochs between checkpoints (and the last epoch)
+    robust_every: int = ROBUST_EVERY  # epochs between robustness checks selecting best_robust (and the last); 0: none
+    checkpoint: str = "best_robust"  # the checkpoint that stands for the run: one of CHECKPOINT_RULES
+    dampings: tuple[float, ...] | None = None  # the damping cells it is evaluated at by default; None: x1/x2/x4
+
+    def __post_init__(self):
+        if self.epochs < 1 or self.save_every < 1 or self.robust_every < 0:
+            raise DragMeshError(f"epochs and save_every must be >= 1 and robust_every >= 0, got {self.epochs}, "
+                                f"{self.save_every} and {self.robust_every}")
+        if self.checkpoint not in CHECKPOINT_RULES:
+            raise DragMeshError(f"checkpoint must be one of {', '.join(CHECKPOINT_RULES)}, got {self.checkpoint!r}")
+        if self.dampings is not None and not (self.dampings and all(0 < d < math.inf for d in self.dampings)):
+            raise DragMeshError(f"dampings must be finite damping multipliers > 0, got {self.dampings}")
+
+
+#: The record's config sections, each the class it is read into.
+SECTIONS = {"schedule": Schedule, "ppo": PPOConfig, "task": TaskConfig, "scene": SceneConfig,
+            "network": NetworkConfig}
 
 
 @dataclass(frozen=True)
@@ -39,20 +77,13 @@ class RunSpec:
     task: TaskConfig = TaskConfig()
     scene: SceneConfig = SceneConfig()
     network: NetworkConfig = NetworkConfig()
+    schedule: Schedule = Schedule()
     finetune: str | None = None  # a fine-tune's recipe
     parent: str | None = None  # the checkpoint a fine-tune continues
     objects: tuple[str, ...] = ()  # a run over several objects: all of them, ``object`` first (empty: one object)
     holdout: int = 0  # the last ``holdout`` of ``objects`` are held aside: best_robust is chosen on them
-    save_every: int = SAVE_EVERY  # epochs between checkpoints (and the last epoch)
-    robust_every: int = ROBUST_EVERY  # epochs between robustness checks (and the last epoch); 0: none
-    checkpoint: str = "best_robust"  # the checkpoint that stands for the run (its method's rule, CHECKPOINT_RULES)
 
     def __post_init__(self):
-        if self.checkpoint not in CHECKPOINT_RULES:
-            raise DragMeshError(f"checkpoint must be one of {', '.join(CHECKPOINT_RULES)}, got {self.checkpoint!r}")
-        if self.save_every < 1 or self.robust_every < 0:
-            raise DragMeshError(f"save_every must be >= 1 and robust_every >= 0, got {self.save_every} and "
-                                f"{self.robust_every}")
         if self.objects and self.objects[0] != self.object:
             raise DragMeshError("a run's objects list starts with its object")
         if not 0 <= self.holdout < max(len(self.objects), 1):
@@ -68,21 +99,12 @@ class RunSpec:
     def heldout_objects(self) -> tuple[str, ...]:
         return self.objects[len(self.objects) - self.holdout:] if self.holdout else ()
 
-    @property
-    def schedule(self) -> tuple[int, int, int]:
-        """(epochs, save_every, robust_every): what a resume may change."""
-        return self.ppo.epochs, self.save_every, self.robust_every
-
-    @property
-    def preset(self) -> Method:
-        """The method preset with this run's network."""
-        return dataclasses.replace(get_method(self.method), network=self.network)
-
     def differences(self, method: str | None = None, object_dir: str | list[str] | None = None,
                     **changes: dict) -> list[str]:
         """What a command's flags would change in this recorded run, each as ``what given (recorded R)``: the
-        method, the object(s) and any field given in ``changes`` (``ppo``, ``task``, ``scene``, ``network``: field ->
-        value; None values are flags not given). A resume continues a run exactly, so any of these is refused."""
+        method, the object(s) and any field given in ``changes`` (``ppo``, ``task``, ``scene``, ``network``,
+        ``schedule``: field -> value; None values are flags not given). A resume continues a run exactly, so any of
+        these is refused (but a longer schedule: ``runs/session.py``)."""
         out = []
         if method is not None and resolve(method) != self.method:
             out.append(f"method {resolve(method)} (recorded {self.method})")
@@ -99,7 +121,7 @@ class RunSpec:
         return out
 
     def with_seed(self, seed: int) -> RunSpec:
-        return dataclasses.replace(self, ppo=dataclasses.replace(self.ppo, seed=seed))
+        return dataclasses.replace(self, schedule=dataclasses.replace(self.schedule, seed=seed))
 
     def on(self, backend: str, impl: str = "jax") -> RunSpec:
         """The same run on another engine."""
@@ -112,10 +134,11 @@ class RunSpec:
         return {"format": RECORD_FORMAT, "method": self.method, "object": str(Path(self.object).resolve()),
                 "objects": objects, "holdout": self.holdout,
                 "finetune": self.finetune, "parent": self.parent, "backend": backend, "buffers": buffers,
-                "schedule": {"save_every": self.save_every, "robust_every": self.robust_every,
-                             "checkpoint": self.checkpoint},
-                "ppo": config_to_dict(self.ppo), "task": config_to_dict(self.task),
-                "scene": config_to_dict(self.scene), "network": config_to_dict(self.network), "versions": versions()}
+                **self.sections(), "versions": versions()}
+
+    def sections(self) -> dict:
+        """The record's config sections (``SECTIONS``) as JSON."""
+        return {k: config_to_dict(getattr(self, k)) for k in SECTIONS}
 
     @classmethod
     def from_record(cls, record: dict, where: str = "run record") -> RunSpec:
@@ -145,56 +168,94 @@ class RunSpec:
         holdout = record.get("holdout", 0)
         if not isinstance(holdout, int):
             raise DragMeshError(f"{where}: holdout must be a whole number, got {holdout!r}")
-        schedule = record.get("schedule") or {}  # runs recorded before it kept the defaults
-        if not isinstance(schedule, dict) or not all(isinstance(schedule.get(k, 0), int) and not isinstance(
-                schedule.get(k, 0), bool) for k in ("save_every", "robust_every")):
-            raise DragMeshError(f"{where}: schedule must hold whole numbers save_every and robust_every, got "
-                                f"{schedule!r}")
-        if schedule.get("checkpoint", "best_robust") not in CHECKPOINT_RULES:
-            raise DragMeshError(f"{where}: schedule.checkpoint must be one of {', '.join(CHECKPOINT_RULES)}")
+        sections = {k: {} if record.get(k) is None else record[k] for k in SECTIONS}  # not recorded: the defaults
+        for k, v in sections.items():
+            if not isinstance(v, dict):
+                raise DragMeshError(f"{where}: {SECTIONS[k].__name__} must be an object, got {type(v).__name__}")
+        if fmt < 4:
+            sections = _upgraded(record["method"], sections)
         return cls(method=record["method"], object=record["object"], objects=tuple(o["folder"] for o in objects),
-                   holdout=holdout, ppo=config_from_dict(PPOConfig, record["ppo"], where),
-                   task=config_from_dict(TaskConfig, record["task"], where),
-                   scene=config_from_dict(SceneConfig, record.get("scene", {}), where),
-                   network=config_from_dict(NetworkConfig, record.get("network", {}), where),
-                   finetune=record.get("finetune"), parent=record.get("parent"),
-                   save_every=schedule.get("save_every", SAVE_EVERY),
-                   robust_every=schedule.get("robust_every", ROBUST_EVERY),
-                   checkpoint=schedule.get("checkpoint", "best_robust"))
+                   holdout=holdout, finetune=record.get("finetune"), parent=record.get("parent"),
+                   **{k: config_from_dict(c, sections[k], where) for k, c in SECTIONS.items()})
+
+
+def _upgraded(method: str, sections: dict) -> dict:
+    """A format-2 or -3 record's sections as format 4 writes them: ``ppo``'s epochs and seed moved to the schedule,
+    the method's network and schedule under what the record holds of them, and the method's own auxiliary weight:
+    before format 4 the methods without the physical signals ignored the recorded one (now the weight decides)."""
+    own = method_defaults(method)
+    ppo = dict(sections["ppo"])
+    moved = {k: ppo.pop(k) for k in ("epochs", "seed") if k in ppo}
+    if "ppo.aux_weight" in get_method(method).overrides:
+        ppo["aux_weight"] = own.ppo.aux_weight
+    return {**sections, "ppo": ppo, "schedule": {**config_to_dict(own.schedule), **sections["schedule"], **moved},
+            "network": {**config_to_dict(own.network), **sections["network"]}}
+
+
+def apply_overrides(tree, overrides: Mapping[str, Any], where: str = ""):
+    """``tree`` (a frozen dataclass whose fields may be frozen dataclasses) with each dotted path of ``overrides``
+    (``"task.reward.w_bound"``) set to its value: one ``dataclasses.replace`` per node that changes, so each config
+    checks its new values together; a path onto a value already given (``"task.reward"`` and
+    ``"task.reward.w_load"``) refines that value. An unknown path is one error line naming it."""
+    if not overrides:
+        return tree
+    direct: dict[str, Any] = {}
+    nested: dict[str, dict[str, Any]] = {}
+    for path, value in overrides.items():
+        head, _, rest = path.partition(".")
+        if rest:
+            nested.setdefault(head, {})[rest] = value
+        else:
+            direct[head] = value
+    names = {f.name for f in dataclasses.fields(tree)}
+    unknown = [f"{where}{k}" for k in [*direct, *nested] if k not in names]
+    if unknown:
+        raise DragMeshError(f"unknown setting {', '.join(unknown)} (a {type(tree).__name__} has "
+                            f"{', '.join(sorted(names))})")
+    changes = dict(direct)
+    for head, sub in nested.items():
+        node = changes.get(head, getattr(tree, head))
+        if not dataclasses.is_dataclass(node):
+            raise DragMeshError(f"unknown setting {where}{head}.{next(iter(sub))} ({where}{head} is "
+                                f"{type(node).__name__}, not a config)")
+        changes[head] = apply_overrides(node, sub, f"{where}{head}.")
+    return dataclasses.replace(tree, **changes)
+
+
+def method_defaults(method: str) -> RunSpec:
+    """A method's tree on no object: the defaults with its overrides (what it trains with, for how long, how its
+    runs are read)."""
+    m = get_method(method)
+    return apply_overrides(RunSpec(method=m.name, object=""), m.overrides)
 
 
 def method_spec(method: str, object_dir: str | list[str], ppo: dict | None = None, task: dict | None = None,
                 scene: dict | None = None, backend: str = "auto", impl: str = "jax",
-                network: dict | None = None, holdout: int = 0) -> RunSpec:
-    """A new run of a method preset: the preset's task (its overrides of the paper's) with ``task`` (TaskConfig
-    fields) on top, the default scene with ``scene`` on top, the PPO defaults with ``ppo`` on top (None values
-    keep the default), the preset's network with ``network`` (NetworkConfig fields) on top. ``object_dir`` may be
-    a list of object folders: one policy over all of them, the last ``holdout`` held aside for checkpoint
-    selection."""
+                network: dict | None = None, holdout: int = 0, schedule: dict | None = None) -> RunSpec:
+    """A new run of a method: the method's tree (:func:`method_defaults`; ``recommended`` recorded as the recipe it
+    stands for) with the command's changes on top, each a group's fields: ``task``, ``scene``, ``network``,
+    ``schedule`` and ``ppo`` (its None values are not given: no PPO field takes None). ``object_dir`` may be a list
+    of object folders: one policy over all of them, the last ``holdout`` held aside for checkpoint selection."""
     objects = [str(o) for o in object_dir] if isinstance(object_dir, list | tuple) else []
     object_dir = objects[0] if objects else object_dir
     if not object_dir:
         raise DragMeshError("no object folder given (--object)")
     if len(objects) == 1:
         objects = []
-    m = get_method(method)
-    method = m.name  # "recommended" recorded as the recipe it stands for
-    task_config = TaskConfig(backend=backend, impl=impl, **{**task_overrides(m), **(task or {})})
-    budget = {} if m.epochs is None else {"epochs": m.epochs}  # the method's own budget unless one is given
-    return RunSpec(method=method, object=str(object_dir), objects=tuple(objects), holdout=holdout,
-                   checkpoint=m.checkpoint,
-                   ppo=PPOConfig(**{**budget, **{k: v for k, v in (ppo or {}).items() if v is not None}}),
-                   task=task_config, scene=dataclasses.replace(SceneConfig(), **(scene or {})),
-                   network=dataclasses.replace(m.network, **(network or {})))
+    given = {"object": str(object_dir), "objects": tuple(objects), "holdout": holdout, "task.backend": backend,
+             "task.impl": impl, **{f"ppo.{k}": v for k, v in (ppo or {}).items() if v is not None}}
+    for group, changes in (("task", task), ("scene", scene), ("network", network), ("schedule", schedule)):
+        given |= {f"{group}.{k}": v for k, v in (changes or {}).items()}
+    return apply_overrides(method_defaults(method), given)
 
 
-def finetune_spec(parent: RunSpec, recipe: str, checkpoint: str, epochs: int) -> RunSpec:
-    """A fine-tune of ``parent`` with ``recipe`` (its task overrides on the parent's task), from ``checkpoint``,
-    to ``epochs`` (counted on from the checkpoint's epoch)."""
+def finetune_spec(parent: RunSpec, recipe: str, checkpoint: str, epochs: int, schedule: dict | None = None
+                  ) -> RunSpec:
+    """A fine-tune of ``parent`` with ``recipe`` (its overrides on the parent's tree), from ``checkpoint``, to
+    ``epochs`` (counted on from the checkpoint's epoch), ``schedule``'s other fields changed where given."""
     ft = get_finetune(recipe)
-    task = dataclasses.replace(parent.task, **ft.task_overrides(parent.task.reward))
-    return dataclasses.replace(parent, task=task, ppo=dataclasses.replace(parent.ppo, epochs=epochs),
-                               finetune=recipe, parent=str(checkpoint))
+    return apply_overrides(parent, {**ft.overrides, **{f"schedule.{k}": v for k, v in (schedule or {}).items()},
+                                    "schedule.epochs": epochs, "finetune": recipe, "parent": str(checkpoint)})
 
 
 def object_hash(folder: str | Path) -> str:

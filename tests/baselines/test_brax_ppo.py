@@ -9,7 +9,7 @@ import numpy as np
 from dragmesh2_jax.baselines.brax_ppo import BRAX_STATE_ONLY, brax_ppo_kwargs, train_brax_ppo
 from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
-from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
 from dragmesh2_jax.task.brax_env import BraxPullEnv
 
 
@@ -26,16 +26,16 @@ def test_the_task_as_a_brax_env(drawer_task):
 
 def test_brax_budget_equals_ours():
     c = PPOConfig()
-    kw = brax_ppo_kwargs(c, episode_length=300)
+    kw = brax_ppo_kwargs(c, episode_length=300, epochs=PAPER_EPOCHS, seed=3)
     steps_per_update = kw["batch_size"] * kw["num_minibatches"] * kw["unroll_length"]
     assert steps_per_update == c.num_envs * c.rollout_len  # 2048 environment steps per update, as ours
-    assert kw["num_timesteps"] // steps_per_update == c.epochs  # 150 updates
+    assert kw["num_timesteps"] // steps_per_update == PAPER_EPOCHS and kw["seed"] == 3  # 150 updates
     assert kw["num_updates_per_batch"] == c.update_epochs and kw["learning_rate"] == c.lr
 
 
 def test_brax_ppo_trains_state_only_and_our_evaluator_scores_it(drawer_task):
-    config = dataclasses.replace(PPOConfig(), num_envs=4, rollout_len=8, epochs=2)
-    controller, metrics = train_brax_ppo(drawer_task, config)
+    config = dataclasses.replace(PPOConfig(), num_envs=4, rollout_len=8)
+    controller, metrics = train_brax_ppo(drawer_task, config, epochs=2)
     assert controller.name == BRAX_STATE_ONLY and np.isfinite(metrics["training/policy_loss"])
     protocol = EvalProtocol(dampings=(1.0, 4.0), episodes=2)
     res = evaluate(protocol.task(drawer_task), controller, protocol)

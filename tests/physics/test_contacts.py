@@ -12,7 +12,6 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.contacts import ContactBudget
 from dragmesh2_jax.physics.mjx_backend import MjxBackend
-from dragmesh2_jax.policies.methods import get_method
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import init_jit, make_train, stack_runs, train
 from dragmesh2_jax.task.config import TaskConfig
@@ -79,8 +78,8 @@ def test_an_overflow_stops_training_and_a_benchmark_not_only_an_evaluation(drawe
     task.backend = _Overflowing(drawer_task.backend)
     with pytest.raises(DragMeshError, match=r"overflowed in 4 world-steps \(bench env\)"):
         bench_env(task, num_envs=2, steps=2)
-    method = dataclasses.replace(get_method("state_only"), network=TINY_NET)
-    program = make_train(task, method, PPOConfig(num_envs=2, rollout_len=4, epochs=1))
+    program = make_train(task, dataclasses.replace(TINY_NET, encoder="none"), PPOConfig(num_envs=2, rollout_len=4),
+                         "state_only")
     ts = init_jit(program, program.data(), jax.random.PRNGKey(0))
     with pytest.raises(DragMeshError, match=r"overflowed in 8 world-steps \(epoch 1\)"):
         train(program, program.data(1), stack_runs([ts]), 1)

@@ -23,7 +23,7 @@ from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.ppo.train import epoch_jit, epoch_runs, init_jit, init_runs, make_train, policy_params, seed_keys
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.trajectory.generator import generate
@@ -86,10 +86,9 @@ def test_contact_sensors_agree_with_the_c_engine():
 def test_a_training_run_records_its_buffers(tmp_path):
     """Two epochs of the recommended recipe with a robustness check; the run record keeps the contact budget."""
     run = RunDir(tmp_path / "run")
-    spec = tiny_spec("recommended", backend="mjx", impl="warp", epochs=2)
+    spec = tiny_spec("recommended", backend="mjx", impl="warp", schedule={"epochs": 2, "robust_every": 2})
     program, ts, (rows,) = start_or_resume(spec, [run], resume=False, progress=False,
-                                           selection=Selection(every=2, protocol=dataclasses.replace(
-                                               SELECTION, dampings=(1.0,), episodes=2)))
+                                           selection=dataclasses.replace(SELECTION, dampings=(1.0,), episodes=2))
     assert [r["epoch"] for r in rows] == [1, 2] and all(np.isfinite(r["loss"]) and r["overflow"] == 0 for r in rows)
     assert run.record()["backend"] == "mjx" and run.spec().task.impl == "warp" and run.spec().method == RECOMMENDED
     assert run.record()["buffers"] == program.task.backend.budget.to_json()
@@ -126,7 +125,7 @@ def test_the_model_is_data_same_object_other_damping_shares_the_program():
     tasks = [PullTask(build_scene(obj, SceneConfig(damping=damping)), base.task.traj, base.task.config)
              for damping in (10.0, 40.0)]
     assert tasks[0].backend.budget.contacts == tasks[1].backend.budget.contacts
-    programs = [make_train(t, base.method, base.config) for t in tasks]
+    programs = [make_train(t, base.network, base.config, base.name) for t in tasks]
 
     def first_epoch(p):
         return epoch_jit(p, p.data(), init_jit(p, p.data(), jax.random.PRNGKey(0)))[0]

@@ -11,8 +11,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.gla import GatedLinearAttention, TokenWindows, gla_last, gla_recurrent
-from dragmesh2_jax.policies.methods import METHODS, get_method, task_overrides
+from dragmesh2_jax.policies.methods import METHODS, NO_PHYSICAL_SIGNALS, get_method
 from dragmesh2_jax.policies.networks import (
     ENCODERS,
     MLP,
@@ -128,7 +129,7 @@ def test_a_rollouts_windows_share_their_tokens_and_give_the_same_outputs():
 
 @pytest.mark.parametrize("encoder", ENCODERS)
 def test_every_encoder_builds_and_runs(encoder):
-    net = ActorCritic(encoder=encoder)
+    net = ActorCritic(NetworkConfig(encoder=encoder))
     s, h, p = jnp.ones((3, 120)), jnp.ones((3, 16, 102)), jnp.ones((3, 24))
     params = init_all(net, jax.random.PRNGKey(0), s, h, p)
     mu, log_std, v, z = jax.jit(net.apply)(params, s, h, p)
@@ -142,7 +143,7 @@ def test_linear_maps_start_as_the_references_pytorch_linears(encoder):
     """Every kernel is drawn as PyTorch's nn.Linear draws it, U(-1/sqrt(fan_in), 1/sqrt(fan_in)), every bias is
     zero (the reference's networks, design §6); so the initial action means of unit-variance inputs sit inside the
     action bounds. flax's default (lecun_normal, 3x the variance) puts 7-17% of them beyond +-1."""
-    net = ActorCritic(encoder=encoder)
+    net = ActorCritic(NetworkConfig(encoder=encoder))
     ks, kh = jax.random.split(jax.random.key(1))
     s, h, p = jax.random.normal(ks, (4096, 120)), jax.random.normal(kh, (4096, 16, 102)), jnp.zeros((4096, 24))
     params = init_all(net, jax.random.key(0), s[:1], h[:1], p[:1])
@@ -169,7 +170,7 @@ def test_privileged_critic_sees_what_the_actor_never_does():
     s, h = jnp.ones((2, 120)), jnp.ones((2, 16, 102))
     p0, p1 = jnp.zeros((2, 24)), jnp.full((2, 24), 3.0)
     for critic, value_moves in (("privileged", True), ("shared", False)):
-        net = ActorCritic(encoder="gla", critic=critic)
+        net = ActorCritic(NetworkConfig(critic=critic))
         params = init_all(net, jax.random.PRNGKey(0), s, h, p0)
         apply = jax.jit(net.apply)
         mu0, _, v0, _ = apply(params, s, h, p0)
@@ -180,21 +181,28 @@ def test_privileged_critic_sees_what_the_actor_never_does():
         np.testing.assert_allclose(mu_actor, mu0, rtol=1e-6)
 
 
-def test_methods_are_presets():
+def test_methods_are_override_sets():
     assert {"pica", "state_only", "flat_history", "gru", "transformer", "gla_only", "pica_flat"} <= set(METHODS)
-    assert all(m.network == NetworkConfig() for m in METHODS.values())  # the paper's sizes (Table 8)
-    load = get_method("pica_load")
-    assert load.encoder == "gla" and load.physical_signals and load.critic == "privileged"
-    over = task_overrides(load)
-    assert over["force_obs"] and over["damping_range"] == (1.0, 4.0) and over["reset_noise"] is not None
-    assert task_overrides(get_method("pica")) == {}  # the paper's PICA changes nothing in the task
-    assert get_method("pica").encoder == "gla" and get_method("pica").physical_signals
-    assert get_method("gla_only").encoder == "gla" and not get_method("gla_only").physical_signals
-    assert get_method("pica_flat").encoder == "flat" and get_method("pica_flat").physical_signals
+    sizes = ("state_sizes", "hist_dim", "heads", "log_std_init", "critic_sizes")
+    assert not [path for m in METHODS.values() for path in m.overrides if path.split(".")[-1] in sizes]  # Table 8's
+    load = get_method("pica_load").overrides
+    assert load["network.critic"] == "privileged" and "network.encoder" not in load  # GLA, the paper's
+    assert load["task.force_obs"] and load["task.damping_range"] == (1.0, 4.0) and load["task.reset_noise"] is not None
+    assert get_method("pica").overrides == {}  # the paper's PICA: the defaults
+    # without the physical signals: no r_bound / r_contact, nominal damping, no auxiliary loss
+    assert NO_PHYSICAL_SIGNALS.items() <= get_method("gla_only").overrides.items()
+    assert "network.encoder" not in get_method("gla_only").overrides
+    assert get_method("pica_flat").overrides == {"network.encoder": "flat"}
+
+
+def test_the_network_config_refuses_an_unknown_encoder_or_critic():
+    for bad in ({"encoder": "lstm"}, {"critic": "oracle"}):
+        with pytest.raises(DragMeshError, match="unknown"):
+            NetworkConfig(**bad)
 
 
 def test_aux_loss_gradients_reach_only_the_temporal_branch_and_aux_head():
-    net = ActorCritic(encoder="gla")
+    net = ActorCritic(NetworkConfig(encoder="gla"))
     s, h = jax.random.normal(jax.random.PRNGKey(1), (4, 120)), jax.random.normal(jax.random.PRNGKey(2), (4, 16, 102))
     priv = jnp.zeros((4, 24))
     params = init_all(net, jax.random.PRNGKey(0), s, h, priv)
@@ -218,7 +226,7 @@ def test_aux_targets_are_not_a_network_input():
     assert "obs.aux" not in inspect.getsource(train_lib._inputs)
     obs = Obs(state=jnp.ones((2, 120)), history=jnp.ones((2, 16, 102)), aux=jnp.zeros((2, 4)),
               privileged=jnp.zeros((2, 24)), step=jnp.zeros(2, jnp.int32))
-    net = ActorCritic(encoder="gla")
+    net = ActorCritic(NetworkConfig(encoder="gla"))
     params = init_all(net, jax.random.PRNGKey(0), obs.state, obs.history, obs.privileged)
     program = SimpleNamespace(config=SimpleNamespace(normalize_obs=False))
     out1 = net.apply(params, *train_lib._inputs(program, None, obs))

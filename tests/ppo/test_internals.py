@@ -10,14 +10,11 @@ within [1e-6, 1e-2]. The rule lives inside ``ppo.train.epoch``, so it is checked
 point-mass task with one update epoch of one minibatch (the reported KL is then the one the rule saw).
 """
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from dragmesh2_jax.policies.methods import get_method
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.policies.normalize import RunningStats
 from dragmesh2_jax.ppo.config import PPOConfig
@@ -53,14 +50,13 @@ def test_running_stats_normalize_a_batch():
 @pytest.fixture(scope="module")
 def lr_after_one_epoch():
     """``(kl_threshold, lr before) -> (lr after, the KL the rule saw)`` for one epoch of the point-mass task."""
-    net = NetworkConfig(state_sizes=(8,), log_std_init=-1.0)
-    method = dataclasses.replace(get_method("state_only"), network=net)
+    net = NetworkConfig(encoder="none", state_sizes=(8,), log_std_init=-1.0)
     programs = {}
 
     def run(kl_threshold: float, lr: float):
         cfg = PPOConfig(num_envs=2, rollout_len=4, update_epochs=1, num_minibatches=1, lr_schedule="adaptive",
                         kl_threshold=kl_threshold, lr=1e-3)
-        p = programs.setdefault(kl_threshold, make_train(PointMass(), method, cfg))
+        p = programs.setdefault(kl_threshold, make_train(PointMass(), net, cfg, "state_only"))
         ts = init_jit(p, p.task.data, jax.random.PRNGKey(0)).replace(lr=jnp.float32(lr))
         ts, m = epoch_jit(p, p.task.data, ts)
         assert float(m["lr"]) == float(ts.lr)

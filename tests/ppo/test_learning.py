@@ -5,7 +5,7 @@ import numpy as np
 
 from dragmesh2_jax.assets.procedural import HEAVY_DRAWER, packaged_object
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.runs.spec import method_spec
 
 EPOCHS = 6
@@ -13,9 +13,9 @@ EPOCHS = 6
 
 def test_pica_opens_the_heavy_drawer_in_its_first_epochs(tmp_path):
     """The paper's PICA, network and batch (64 worlds x 32 steps), from seed 0."""
-    spec = method_spec("pica", str(packaged_object(HEAVY_DRAWER)), {"epochs": EPOCHS, "seed": 0}, backend="mujoco")
-    _, _, (rows,) = start_or_resume(spec, [RunDir(tmp_path / "run")], resume=False, save_every=EPOCHS,
-                                    selection=Selection(every=0), progress=False)
+    spec = method_spec("pica", str(packaged_object(HEAVY_DRAWER)), backend="mujoco",
+                       schedule={"epochs": EPOCHS, "seed": 0, "save_every": EPOCHS, "robust_every": 0})
+    _, _, (rows,) = start_or_resume(spec, [RunDir(tmp_path / "run")], resume=False, progress=False)
     success = np.array([r["success"] for r in rows])
     detach = np.array([r["detach"] for r in rows])
     progress = np.array([r["progress"] for r in rows])

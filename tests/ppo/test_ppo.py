@@ -1,6 +1,5 @@
 """PPO: learns a tiny control task; GAE; determinism; an interrupted and resumed run equals an uninterrupted one."""
 
-import dataclasses
 from types import SimpleNamespace
 
 import jax
@@ -9,7 +8,6 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.policies.methods import get_method
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.config import PPOConfig
@@ -17,7 +15,7 @@ from dragmesh2_jax.ppo.losses import compute_gae
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit, make_train
 from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.task.config import RewardConfig
 from dragmesh2_jax.task.protocol import Obs, State
 from tests.conftest import tiny_program, tiny_spec
@@ -71,13 +69,12 @@ class PointMass:
 
 
 def test_ppo_solves_a_point_mass():
-    cfg = PPOConfig(num_envs=32, rollout_len=30, epochs=40, update_epochs=4, num_minibatches=4, seed=0, lr=3e-3)
-    net = NetworkConfig(state_sizes=(64, 64), log_std_init=-1.0)
-    method = dataclasses.replace(get_method("state_only"), network=net)
-    program = make_train(PointMass(), method, cfg)
+    cfg = PPOConfig(num_envs=32, rollout_len=30, update_epochs=4, num_minibatches=4, lr=3e-3)
+    net = NetworkConfig(encoder="none", state_sizes=(64, 64), log_std_init=-1.0)
+    program = make_train(PointMass(), net, cfg, "state_only")
     ts = init_jit(program, program.task.data, jax.random.PRNGKey(0))
     first = None
-    for _ in range(cfg.epochs):
+    for _ in range(40):
         ts, m = epoch_jit(program, program.task.data, ts)
         first = float(m["reward"]) if first is None else first
     last = float(m["reward"])
@@ -96,7 +93,7 @@ def test_gae_truncation_and_termination():
 
 
 def test_same_seed_same_metrics_and_exact_resume(tmp_path):
-    p = tiny_program(epochs=3)
+    p = tiny_program()
     data, key = p.task.data, jax.random.PRNGKey(7)
     a, b = init_jit(p, data, key), init_jit(p, data, key)
     rows_a = []
@@ -130,7 +127,7 @@ def test_bad_ppo_config():
 
 def test_policy_trained_on_one_backend_loads_on_the_other(tmp_path):
     run = RunDir(tmp_path / "run")
-    _, ts, _ = start_or_resume(tiny_spec(), [run], resume=False, selection=Selection(every=0), progress=False)
+    _, ts, _ = start_or_resume(tiny_spec(schedule={"robust_every": 0}), [run], resume=False, progress=False)
     program, loaded, _, _ = load_run(run.checkpoint("final"), backend="mjx")
     assert program.task.backend.name == "mjx"
     for x, y in zip(jax.tree.leaves(ts.params), jax.tree.leaves(loaded.params), strict=True):

@@ -22,7 +22,7 @@ from dragmesh2_jax.ppo.train import (
     take_run,
 )
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.session import start_or_resume
 from tests.conftest import tiny_program, tiny_spec
 
 OBJ = str(default_object())
@@ -108,15 +108,17 @@ def test_runs_sharded_over_four_devices_equal_one_device():
 
 
 def test_multi_seed_run_writes_a_folder_per_seed_and_resumes_exactly(tmp_path):
-    quiet = {"progress": False, "save_every": 1, "selection": Selection(every=0)}
-    spec = tiny_spec()
+    quiet = {"save_every": 1, "robust_every": 0}
+    spec = tiny_spec(schedule=quiet)
     runs = lambda name: [RunDir(tmp_path / name / f"seed_{s}") for s in (3, 4)]  # noqa: E731
-    _, full, rows = start_or_resume(spec, runs("full"), [3, 4], resume=False, **quiet)
+    _, full, rows = start_or_resume(spec, runs("full"), [3, 4], resume=False, progress=False)
     assert [len(r) for r in rows] == [2, 2]
     for run, seed in zip(runs("full"), (3, 4), strict=True):
-        assert run.spec().ppo.seed == seed and run.has_checkpoint("final")
-    start_or_resume(spec, runs("cut"), [3, 4], resume=False, epochs=1, **quiet)  # "interrupted" after one epoch
-    _, resumed, rows2 = start_or_resume(None, runs("cut"), resume=True, **quiet)
+        assert run.spec().schedule.seed == seed and run.has_checkpoint("final")
+    cut = tiny_spec(schedule={**quiet, "epochs": 1})  # one epoch, then resumed to two
+    start_or_resume(cut, runs("cut"), [3, 4], resume=False, progress=False)
+    _, resumed, rows2 = start_or_resume(spec, runs("cut"), resume=True, progress=False)
+    assert [r.spec().schedule for r in runs("cut")] == [r.spec().schedule for r in runs("full")]  # each its seed
     for x, y in zip(jax.tree.leaves(full.params), jax.tree.leaves(resumed.params), strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
     assert [r["epoch"] for r in rows2[0]] == [1, 2]

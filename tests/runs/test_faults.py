@@ -112,7 +112,7 @@ def test_a_run_stopped_before_its_first_checkpoint_restarts_with_the_same_comman
     assert train(tmp_path / "other", "--seed", "7", "--epochs", "1", *traj) == 130
     monkeypatch.undo()
     assert dragmesh2(["train", "--out", str(tmp_path / "other"), "--resume", "--quiet"]) == 0
-    assert RunDir(tmp_path / "other").spec().ppo.seed == 7 and RunDir(tmp_path / "other").trained_epochs() == 1
+    assert RunDir(tmp_path / "other").spec().schedule.seed == 7 and RunDir(tmp_path / "other").trained_epochs() == 1
 
 
 def test_wandb_missing_is_refused_before_anything_is_written(tmp_path, monkeypatch, capsys):
@@ -127,7 +127,7 @@ def test_a_resume_refuses_changed_flags_and_a_longer_schedule_extends_the_record
     assert dragmesh2(["train", "--out", str(run), "--resume", *changed]) == 2
     line = one_error(capsys, "--resume continues the recorded run exactly")
     for what in ("method state_only (recorded pica)", "ppo.num_envs 8 (recorded 4)", "task.alpha 0.03 (recorded 0.05)",
-                 "ppo.seed 3 (recorded 42)"):
+                 "schedule.seed 3 (recorded 42)"):
         assert what in line
     assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "1"]) == 2
     one_error(capsys, "already trained 2 epochs")
@@ -137,7 +137,8 @@ def test_a_resume_refuses_changed_flags_and_a_longer_schedule_extends_the_record
     one_error(capsys, "drop --trajectory")
     assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--method", "pica", "--quiet",
                       "--robust-every", "0"]) == 0
-    assert RunDir(run).spec().ppo.epochs == 3 and RunDir(run).trained_epochs() == 3
+    assert RunDir(run).spec().schedule.epochs == 3 and RunDir(run).trained_epochs() == 3
+    assert RunDir(run).spec().schedule.robust_every == 0  # the resume's interval, revised in the record
 
 
 def test_train_into_a_run_that_has_checkpoints_is_refused(run, capsys):
@@ -163,7 +164,7 @@ def test_seed_folders_that_disagree_do_not_resume_as_one_program(trained, tmp_pa
     for seed, alpha in ((0, 0.05), (1, 0.03)):  # seed 1 was trained with another task
         path = tmp_path / "runs" / f"seed_{seed}" / "run.json"
         record = json.loads(path.read_text())
-        record["ppo"]["seed"], record["task"]["alpha"] = seed, alpha
+        record["schedule"]["seed"], record["task"]["alpha"] = seed, alpha
         path.write_text(json.dumps(record))
     assert dragmesh2(["train", "--out", str(tmp_path / "runs"), "--seeds", "0,1", "--resume", "--epochs", "3"]) == 2
     one_error(capsys, "differs from")
@@ -211,11 +212,12 @@ def test_a_resume_that_revises_the_schedule_keeps_the_checkpoint_rule(tmp_path):
     """The recipe's runs are read at their final checkpoint; a resume that trains further rewrites the record's
     schedule and must keep that rule (the recipe's train-then-evaluate with no flags: tests/test_readme.py)."""
     spec = method_spec("recommended", str(default_object()))
-    assert (spec.ppo.epochs, spec.checkpoint) == (RECIPE_EPOCHS, "final")
+    assert (spec.schedule.epochs, spec.schedule.checkpoint) == (RECIPE_EPOCHS, "final")
     run = RunDir(tmp_path / "run")
     atomic_write_json(run.record_path, spec.record("mujoco"))
-    run.revise(dataclasses.replace(spec, ppo=dataclasses.replace(spec.ppo, epochs=400), save_every=5))
-    assert run.spec().checkpoint == "final" and run.spec().schedule == (400, 5, spec.robust_every)
+    given = method_spec("pica", str(default_object()), schedule={"epochs": 400, "save_every": 5, "seed": 1})
+    run.revise(session._continued(run.spec(), given).schedule)
+    assert run.spec().schedule == dataclasses.replace(spec.schedule, epochs=400, save_every=5)
 def test_a_fine_tune_stopped_before_its_first_checkpoint_is_not_restarted_from_scratch(run, tmp_path, monkeypatch,
                                                                                         capsys):
     def interrupt(self, rows):

@@ -14,20 +14,19 @@ from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.runs.spec import method_spec, object_hash
 from dragmesh2_jax.task.mix import ObjectMix
-from tests.conftest import TINY_NET, TINY_PPO
+from tests.conftest import TINY_PPO, TINY_SIZES
 
 pytestmark = pytest.mark.xdist_group(__name__)  # the module's run is trained once
 OBJECTS = [str(packaged_object(n)) for n in ("drawer_cabinet_0000", "door_cabinet_0000", "drawer_cabinet_0213")]
-SELECT = Selection(every=2, protocol=dataclasses.replace(SELECTION, episodes=2))
-QUIET = {"selection": SELECT, "progress": False, "save_every": 1}
+QUIET = {"selection": dataclasses.replace(SELECTION, episodes=2), "progress": False}
 
 
 def _spec(epochs: int):
-    spec = method_spec("pica", OBJECTS, {**TINY_PPO, "epochs": epochs}, backend="mujoco", holdout=1)
-    return dataclasses.replace(spec, network=TINY_NET)
+    return method_spec("pica", OBJECTS, TINY_PPO, backend="mujoco", network=TINY_SIZES, holdout=1,
+                       schedule={"epochs": epochs, "save_every": 1, "robust_every": 2})
 
 
 @pytest.fixture(scope="session")
@@ -55,7 +54,7 @@ def test_a_run_over_several_objects_resumes_exactly(mixed_run, tmp_path):
     run, _, _ = mixed_run
     cut = RunDir(tmp_path / "cut")
     start_or_resume(_spec(1), [cut], resume=False, **QUIET)
-    _, resumed, _ = start_or_resume(None, [cut], resume=True, epochs=2, **QUIET)
+    _, resumed, _ = start_or_resume(_spec(2), [cut], resume=True, **QUIET)  # extended to the full run's epochs
     _, full, _, _ = load_run(run.checkpoint("final"))
     for x, y in zip(jax.tree.leaves(full.params), jax.tree.leaves(jax.tree.map(lambda v: v[0], resumed.params)),
                     strict=True):

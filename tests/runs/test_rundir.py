@@ -13,7 +13,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.session import start_or_resume
 from tests.conftest import TINY_RUNS, tiny_spec
 
 pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once, beside the others
@@ -22,7 +22,7 @@ pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once
 @pytest.fixture(scope="session")
 def run(tmp_path_factory):
     r = RunDir(tmp_path_factory.mktemp("rundir") / "run")
-    start_or_resume(tiny_spec(), [r], resume=False, save_every=1, selection=Selection(every=0), progress=False)
+    start_or_resume(tiny_spec(schedule={"save_every": 1, "robust_every": 0}), [r], resume=False, progress=False)
     return r
 
 

@@ -18,7 +18,7 @@ from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.commands import finetune_run, load_run
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
+from dragmesh2_jax.runs.session import robust_score, start_or_resume
 from dragmesh2_jax.runs.spec import finetune_spec
 from dragmesh2_jax.task.config import ReconfigConfig
 from dragmesh2_jax.task.rewards import BASE_TERMS, TERM_PREFIX
@@ -29,13 +29,14 @@ pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once
 REPO = Path(__file__).resolve().parents[2]
 WANDB_TIMEOUT_S = 600
 
-SELECT = Selection(every=2, protocol=dataclasses.replace(SELECTION, episodes=2))
+SELECT = dataclasses.replace(SELECTION, episodes=2)
+CHECKED = {"epochs": 4, "robust_every": 2}  # the trained run's schedule: a robustness check every other epoch
 
 
 @pytest.fixture(scope="session")
 def trained_run(tmp_path_factory):
     run = RunDir(tmp_path_factory.mktemp("runs") / "pica")
-    start_or_resume(tiny_spec(epochs=4), [run], resume=False, selection=SELECT, progress=False)
+    start_or_resume(tiny_spec(schedule=CHECKED), [run], resume=False, selection=SELECT, progress=False)
     return run
 
 
@@ -47,7 +48,7 @@ def test_training_keeps_best_robust_and_its_evaluation_curve(trained_run):
     assert (trained_run.path / "robust.csv").is_file()
     assert trained_run.policy_checkpoint().name == "best_robust"  # evaluate/demo default
     _, ts, _, ck = load_run(trained_run.path)
-    best = max(rows, key=Selection.score)
+    best = max(rows, key=robust_score)
     assert int(ts.epoch) == best["epoch"] and ck.name == "best_robust"
 
 
@@ -86,18 +87,30 @@ def test_tensorboard_scalars_beside_the_logs(trained_run):
     assert tags["train/reward/task"] == [1, 2, 3, 4]
 
 
+def _at(tree, path: str):
+    for name in path.split("."):
+        tree = getattr(tree, name)
+    return tree
+
+
 def test_every_finetune_preset_is_the_parents_run_with_the_recipes_task(trained_run):
     parent = trained_run.spec()
     for name in FINETUNES:
         spec = finetune_spec(parent, name, "ck", 9)
-        assert spec.ppo.epochs == 9 and spec.finetune == name and spec.parent == "ck"
-        assert spec.task == dataclasses.replace(parent.task, **get_finetune(name).task_overrides(parent.task.reward))
+        assert spec.schedule == dataclasses.replace(parent.schedule, epochs=9)
+        assert spec.finetune == name and spec.parent == "ck"
+        assert (spec.ppo, spec.network, spec.scene) == (parent.ppo, parent.network, parent.scene)
+        assert all(_at(spec, path) == value for path, value in get_finetune(name).overrides.items())
+        # the recipes change the reward and the damping range, nothing else of the parent's task
+        assert dataclasses.replace(spec.task, reward=parent.task.reward,
+                                   damping_range=parent.task.damping_range) == parent.task
     assert finetune_spec(parent, "damp_2_4", "ck", 9).task.damping_range == (2.0, 4.0)
+    assert finetune_spec(parent, "continued", "ck", 9, {"robust_every": 0}).schedule.robust_every == 0
 
 
 def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
     parent, rows = finetune_run(str(trained_run.path), "both", str(tmp_path / "ft"), epochs=2,
-                                selection=Selection(every=0), progress=False)
+                                schedule={"robust_every": 0}, progress=False)
     start = int(load_run(parent)[1].epoch)
     assert parent.name == "best_robust" and [r["epoch"] for r in rows] == [start + 1, start + 2]
     assert all("aram_lambda" in r and 0.0 <= r["aram_lambda"] <= 1.0 for r in rows)
@@ -123,7 +136,7 @@ def test_the_same_scalars_go_to_weights_and_biases_offline(tmp_path, monkeypatch
 
     monkeypatch.setattr(session, "_Scalars", Recorder)
     run = RunDir(tmp_path / "run")
-    start_or_resume(tiny_spec(epochs=4), [run], resume=False, selection=SELECT, progress=False,
+    start_or_resume(tiny_spec(schedule=CHECKED), [run], resume=False, selection=SELECT, progress=False,
                     wandb="dragmesh2-test")  # the trained_run fixture's program: compiled already
     assert projects == ["dragmesh2-test"]
     script = ("from dragmesh2_jax.runs.rundir import RunDir\n"

@@ -1,31 +1,47 @@
 """What a run is: the spec written once into the run record and read back whole; a run trained with non-default
 task and scene settings is evaluated, resumed and fine-tuned with them, not with the defaults; a malformed record
-is one error line."""
+is one error line; records of earlier formats are read; a method is one entry of overrides, and a config field
+reaches the record and the command line with no other edit."""
 
 import dataclasses
 import json
+import typing
 from pathlib import Path
 
 import jax
 import numpy as np
 import pytest
 
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.cli.flags import flag_value
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import PAPER
-from dragmesh2_jax.policies.methods import RECOMMENDED, get_method
+from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.policies.methods import METHODS, RECIPE_DAMPINGS, RECOMMENDED, Method, get_method
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
-from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import Selection, start_or_resume
-from dragmesh2_jax.runs.spec import RECORD_FORMAT, RunSpec, finetune_spec
+from dragmesh2_jax.runs.session import start_or_resume
+from dragmesh2_jax.runs.spec import (
+    RECORD_FORMAT,
+    SECTIONS,
+    RunSpec,
+    Schedule,
+    apply_overrides,
+    finetune_spec,
+    method_defaults,
+    method_spec,
+)
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import AramConfig, ResetNoise, RewardConfig, TaskConfig
-from tests.conftest import TINY_NET, tiny_spec
+from tests.conftest import TINY_NET, installed_command, tiny_spec
+from tests.test_cli import train_parser
+
+dragmesh2 = installed_command()
 
 
 def test_configs_round_trip_through_json():
@@ -33,12 +49,13 @@ def test_configs_round_trip_through_json():
                       reward=RewardConfig(w_load=2.0, aram=AramConfig()))
     scene = SceneConfig(damping=25.0, friction=1.0, object_pos=(0.6, 0.1, 0.5))
     for config in (task, scene, PPOConfig(aux_warmup=(5, 20), num_envs=8), TaskConfig(), NetworkConfig(),
-                   TINY_NET):
+                   TINY_NET, NetworkConfig(encoder="none", critic="privileged"), Schedule(),
+                   Schedule(epochs=300, seed=3, checkpoint="final", dampings=RECIPE_DAMPINGS)):
         back = config_from_dict(type(config), json.loads(json.dumps(config_to_dict(config))))
         assert back == config  # tuples, optional and nested configs included
     with pytest.raises(DragMeshError, match="unknown TaskConfig fields"):
         config_from_dict(TaskConfig, {"alpha": 0.05, "not_a_field": 1})
-    plausible = TaskConfig(**get_finetune("plausible").task_overrides(RewardConfig()))
+    plausible = finetune_spec(RunSpec("pica", "obj"), "plausible", "ck", 1).task
     assert config_from_dict(TaskConfig, json.loads(json.dumps(config_to_dict(plausible)))) == plausible
 
 
@@ -46,23 +63,23 @@ def test_a_record_from_before_the_constraints_reads_its_single_load_constraint()
     """Records written with ``load_constraint`` (null, or hold_cmdp's) read as the load constraint it was."""
     assert config_from_dict(RewardConfig, {"w_task": 250.0, "load_constraint": None}) == RewardConfig()
     old = {"load_constraint": {"f_limit": 100.0, "budget": 0.01, "lr": 50.0, "lambda_max": 20.0}}
-    assert config_from_dict(RewardConfig, old).constraints == get_method("hold_cmdp").constraints
+    assert config_from_dict(RewardConfig, old).constraints == method_defaults("hold_cmdp").task.reward.constraints
 
 
 def test_non_default_task_and_scene_settings_are_what_evaluation_and_finetunes_use(tmp_path):
     spec = tiny_spec(task={"alpha": 0.03, "episode_length": 40}, scene={"damping": 25.0, "friction": 1.0},
-                     epochs=1, update_epochs=1)
+                     schedule={"epochs": 1, "robust_every": 0}, update_epochs=1)
     run = RunDir(tmp_path / "run")
-    start_or_resume(spec, [run], resume=False, selection=Selection(every=0), progress=False)
+    start_or_resume(spec, [run], resume=False, progress=False)
     record = run.record()
     assert record["format"] == RECORD_FORMAT and record["scene"]["damping"] == 25.0
     assert record["task"]["alpha"] == 0.03 and {"jax", "mujoco", "python"} <= set(record["versions"])
-    assert run.spec() == dataclasses.replace(spec, robust_every=0)  # read back whole (the network, the schedule)
+    assert run.spec() == spec  # read back whole (the network, the schedule)
 
     program, ts, _, _ = load_run(run.path)
     assert program.task.config.alpha == 0.03 and program.task.config.episode_length == 40
     assert program.task.scene.config.damping == 25.0 and program.task.scene.config.friction == 1.0
-    assert program.method.network == TINY_NET
+    assert program.network == TINY_NET
     evaluation = PAPER.task(program.task)  # the evaluation protocol's task keeps the run's settings
     assert evaluation.config.alpha == 0.03 and evaluation.scene.config.damping == 25.0
     assert float(evaluation.data.params.damping) == 25.0  # the nominal damping the cells multiply
@@ -88,6 +105,11 @@ GOOD = RunSpec("pica", "obj").record("mujoco")
     ({**GOOD, "scene": {"collide": "some"}}, "collide"),
     ({**GOOD, "finetune": "nope"}, "unknown fine-tune"),
     ({**GOOD, "network": {"heads": 2.5}}, "whole number"),
+    ({**GOOD, "network": {"encoder": "lstm"}}, "unknown temporal encoder"),
+    ({**GOOD, "schedule": {"checkpoint": "best"}}, "checkpoint must be one of"),
+    ({**GOOD, "schedule": [150]}, "Schedule must be an object"),
+    ({**GOOD, "ppo": {**GOOD["ppo"], "epochs": 150}}, "unknown PPOConfig fields"),  # format 4 keeps it in schedule
+    ({**GOOD, "format": 3, "ppo": 5}, "PPOConfig must be an object"),
 ])
 def test_a_malformed_record_is_one_error_line(record, fragment):
     with pytest.raises(DragMeshError, match=fragment) as e:
@@ -106,7 +128,8 @@ NAN, INF = float("nan"), float("inf")
     ("ppo", "clip_eps", NAN), ("task", "alpha", INF), ("task", "alpha", 1e9), ("task", "control_dt", NAN),
     ("task", "d_detach", NAN), ("scene", "scale", INF), ("scene", "object_pos", [NAN, 0.0, 0.6]),
     ("scene", "armature", NAN), ("scene", "collision_radius", NAN), ("network", "log_std_init", NAN),
-    ("network", "heads", 0),
+    ("network", "heads", 0), ("schedule", "epochs", 0), ("schedule", "save_every", 0),
+    ("schedule", "epochs", INF), ("schedule", "dampings", [NAN]), ("schedule", "dampings", [0.0]),
 ])
 def test_a_non_finite_or_absurd_recorded_number_is_one_error_line(group, field, value):
     """A config number in run.json that is NaN, infinite, 1e9 or 0 where the field needs a finite value in its range
@@ -124,10 +147,102 @@ def test_recommended_is_the_projects_recipe_and_trains_on_the_c_engine():
     (tests/physics/test_mjx_backend.py trains it on MJX). The recipe observes what the paper's policy does (no
     force or touch sensing); only its critic sees damping, friction and contact load."""
     spec = tiny_spec("recommended")
-    assert spec.method == RECOMMENDED and spec.preset.name == get_method("recommended").name == "hold_blind"
+    assert spec.method == RECOMMENDED and get_method("recommended").name == "hold_blind"
     assert spec.task.damping_range == (1.0, 8.0) and not spec.task.force_obs and spec.task.reset_noise is not None
+    assert spec.network.critic == "privileged" and spec.schedule.checkpoint == "final"
     program = program_of(spec)
     ts, m = epoch_jit(program, program.data(), init_jit(program, program.data(), jax.random.PRNGKey(0)))
     assert int(ts.epoch) == 1 and np.isfinite(float(m["loss"])) and float(ts.privileged_stats.count) > 1
     with pytest.raises(DragMeshError, match="choose from recommended"):
         get_method("recomended")
+
+
+def test_overrides_are_dotted_paths_into_the_tree_and_an_unknown_one_is_named():
+    spec = RunSpec("pica", "obj")
+    changed = apply_overrides(spec, {"task.reward.w_load": 2.0, "network.encoder": "gru", "schedule.seed": 3})
+    assert (changed.task.reward.w_load, changed.network.encoder, changed.schedule.seed) == (2.0, "gru", 3)
+    assert dataclasses.replace(changed.task, reward=spec.task.reward) == spec.task  # nothing else moved
+    refined = apply_overrides(spec, {"task.reward": RewardConfig(w_bound=0.0), "task.reward.w_load": 1.0})
+    assert refined.task.reward == RewardConfig(w_bound=0.0, w_load=1.0)
+    for bad, named in (({"task.reward.w_bond": 0.0}, "task.reward.w_bond"), ({"netwrok.heads": 2}, "netwrok"),
+                       ({"task.alpha.x": 1}, "task.alpha.x"), ({"network.encoder": "lstm"}, "lstm")):
+        with pytest.raises(DragMeshError, match=named) as e:
+            apply_overrides(spec, bad)
+        assert "\n" not in str(e.value)
+    for name in METHODS:  # every method is a valid set of overrides
+        assert method_defaults(name).method == name
+
+
+def test_a_new_method_is_one_entry_that_reaches_the_record_and_the_command_line(monkeypatch, tmp_path, capsys):
+    monkeypatch.setitem(METHODS, "pica_wide", Method("pica_wide", "PICA with a wider history feature and a gentler "
+                                                     "reward shaping", {"network.hist_dim": 48, "task.alpha": 0.04}))
+    spec = method_spec("pica_wide", str(default_object()), backend="mujoco")
+    assert spec.network.hist_dim == 48 and spec.task.alpha == 0.04 and spec.method == "pica_wide"
+    record = json.loads(json.dumps(spec.record("mujoco")))
+    assert record["method"] == "pica_wide" and record["network"]["hist_dim"] == 48 and record["task"]["alpha"] == 0.04
+    assert RunSpec.from_record(record) == dataclasses.replace(spec, object=str(Path(spec.object).resolve()))
+    assert "pica_wide" in train_parser().format_help()
+    # the command line takes it: a recorded run of it resumes by its name, refusing only what differs
+    run = RunDir(tmp_path / "run")
+    atomic_write_json(run.record_path, record)
+    assert dragmesh2(["train", "--out", str(run.path), "--resume", "--method", "pica_wide", "--task.alpha",
+                      "0.05"]) == 2
+    err = capsys.readouterr().err
+    assert "task.alpha 0.05 (recorded 0.04)" in err and "method pica_wide" not in err
+
+
+#: Fields a ``train`` flag of its own sets (the engine, the batch), and those no policy run sets from the command line
+#: (the effector is the parallel-jaw primitive's).
+OWN_FLAGS = {"task.backend": "--backend", "task.impl": "--impl", "ppo.num_envs": "--num-envs",
+             "ppo.lr_schedule": "--lr-schedule"}
+NO_FLAG = {"scene.effector"}
+
+
+def test_every_config_field_reaches_the_record_and_a_train_flag_with_its_default():
+    """Every field of the schedule and of the PPO, task, scene and network configs (but nested configs, set in
+    Python) is in the run record and is a ``train`` flag whose help shows its default: a new field reaches both."""
+    record = RunSpec("pica", "obj").record("mujoco")
+    parser = train_parser()
+    helps = {o: parser._get_formatter()._format_action(a) for a in parser._actions for o in a.option_strings}
+    for group, cls in SECTIONS.items():
+        hints = typing.get_type_hints(cls)
+        for f in dataclasses.fields(cls):
+            assert f.name in record[group], f"{group}.{f.name} not recorded"
+            nested = any(dataclasses.is_dataclass(t) for t in (hints[f.name], *typing.get_args(hints[f.name])))
+            if nested or f"{group}.{f.name}" in NO_FLAG:
+                continue
+            flag = OWN_FLAGS.get(f"{group}.{f.name}") or (f"--{f.name}" if group == "schedule" else
+                                                          f"--{group}.{f.name}").replace("_", "-")
+            assert flag in helps, f"{group}.{f.name}: no {flag}"
+            assert "default" in helps[flag] and flag_value(f.default) in helps[flag], helps[flag]
+
+
+def _format_3(method: str) -> dict:
+    """A record as format 3 wrote it: the epochs and the seed in ``ppo``, the network's sizes without its encoder
+    and critic (the method's), the schedule's intervals and checkpoint rule."""
+    ppo = {**config_to_dict(PPOConfig()), "epochs": 120, "seed": 7}
+    network = {k: v for k, v in config_to_dict(NetworkConfig()).items() if k not in ("encoder", "critic")}
+    rule = method_defaults(method).schedule.checkpoint
+    return {"format": 3, "method": method, "object": "/objects/door", "objects": [], "holdout": 0, "finetune": None,
+            "parent": None, "backend": "mujoco", "buffers": None,
+            "schedule": {"save_every": 5, "robust_every": 10, "checkpoint": rule},
+            "ppo": ppo, "task": config_to_dict(method_defaults(method).task), "scene": config_to_dict(SceneConfig()),
+            "network": network, "versions": {"python": "3.11"}}
+
+
+def test_a_format_3_record_reads_its_epochs_and_seed_into_the_schedule_and_the_network_from_its_method(tmp_path):
+    recipe = RunSpec.from_record(_format_3(RECOMMENDED))
+    assert recipe.schedule == Schedule(epochs=120, seed=7, save_every=5, checkpoint="final", dampings=RECIPE_DAMPINGS)
+    assert recipe.network == NetworkConfig(critic="privileged") and recipe.ppo == PPOConfig()
+    blind = RunSpec.from_record(_format_3("state_only"))  # its recorded aux weight went unused: none now
+    assert blind.network.encoder == "none" and blind.ppo.aux_weight == 0.0
+    old = {k: v for k, v in _format_3(RECOMMENDED).items() if k not in ("network", "schedule")}  # format 2
+    assert RunSpec.from_record({**old, "format": 2}).schedule == dataclasses.replace(recipe.schedule, save_every=10)
+    # a resume that extends it writes the record in the current format
+    run = RunDir(tmp_path / "run")
+    atomic_write_json(run.record_path, _format_3(RECOMMENDED))
+    run.revise(dataclasses.replace(recipe.schedule, epochs=200))
+    record = run.record()
+    assert record["format"] == RECORD_FORMAT and "epochs" not in record["ppo"] and record["schedule"]["epochs"] == 200
+    assert record["network"]["critic"] == "privileged" and record["versions"] == {"python": "3.11"}
+    assert run.spec() == dataclasses.replace(recipe, schedule=dataclasses.replace(recipe.schedule, epochs=200))

@@ -12,15 +12,16 @@ import pytest
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.policies.methods import RECOMMENDED, get_method, task_overrides
-from dragmesh2_jax.ppo.finetune import get_finetune
+from dragmesh2_jax.policies.methods import RECOMMENDED
+from dragmesh2_jax.ppo.finetune import PLAUSIBLE
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit, multiplier_update
-from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.runs.build import load_task, program_of
+from dragmesh2_jax.runs.spec import finetune_spec, method_defaults
 from dragmesh2_jax.scene import FORCE_SIZE
 from dragmesh2_jax.task.config import Constraint, RewardConfig
 from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, Events, make_batched
 from dragmesh2_jax.task.rewards import constraint_cost, reward_terms
-from tests.conftest import tiny_program
+from tests.conftest import tiny_spec
 
 OBJ = str(default_object())
 
@@ -85,10 +86,9 @@ def test_the_plausible_finetune_trains_the_recipe_and_each_multiplier_takes_one_
     """The recipe under the plausible fine-tune (the policy never observes the load; the costs and the critic do):
     lambda_i = clip(0 + lr_i (J_i - budget_i), 0, lambda_max_i) after the first epoch, J_i the epoch's mean cost per
     step."""
-    plausible = get_finetune("plausible")
-    program = tiny_program(RECOMMENDED, OBJ, task=plausible.task_overrides(RewardConfig()))
+    program = program_of(finetune_spec(tiny_spec(RECOMMENDED, OBJ), "plausible", "ck", 1))
     constraints = program.task.config.reward.constraints
-    assert constraints == plausible.constraints and program.task.config.reward.lagrangian == "normalized"
+    assert constraints == PLAUSIBLE and program.task.config.reward.lagrangian == "normalized"
     assert not program.task.config.force_obs
     ts, m = epoch_jit(program, program.task.data, init_jit(program, program.task.data, jax.random.PRNGKey(0)))
     assert int(ts.epoch) == 1 and np.isfinite(float(m["loss"])) and float(ts.aram_lambda) == 0.0
@@ -136,7 +136,7 @@ def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps
 
 
 def test_load_budget_reward_penalises_only_the_pull_beyond_what_the_grasp_holds():
-    cfg = task_overrides(get_method("pica_grip"))["reward"]
+    cfg = method_defaults("pica_grip").task.reward
     assert cfg.w_load > 0 and dataclasses.replace(cfg, w_load=0.0) == RewardConfig()  # only the load term differs
     args = (jnp.zeros(51), jnp.float32(0.05), jnp.float32(0.0), jnp.float32(0.0), jnp.float32(0.0))
     load = lambda f: float(reward_terms(cfg, *args, jnp.asarray([f, 0.0, 0.0]))["load"])  # noqa: E731
