@@ -16,6 +16,7 @@ mix's min, quartiles and max, each real object's value and whether each mix's ra
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 from pathlib import Path
@@ -127,10 +128,15 @@ def quantities(obj: GAPartNetObject, scale: float, mass: float) -> dict:
 
 
 def describe(folder: Path, config: SceneConfig) -> dict:
-    """One object's row: its name and the quantities (the mass from the scene ``config`` builds)."""
+    """One object's row: its name, the quantities (the mass from the scene ``config`` builds) and, for a procedural
+    object, the handle kind its generator drew (``meta.json``: an edge pull is a line handle to the loader, so the
+    handle type above counts it as a bar)."""
     obj = load_gapartnet(folder)
     mass = float(build_scene(obj, config).stats["target_mass_kg"])
-    return {"object": obj.object_id, **quantities(obj, config.scale, mass)}
+    meta = folder / "meta.json"
+    generator = json.loads(meta.read_text()).get("generator", {}) if meta.is_file() else {}
+    return {"object": obj.object_id, **quantities(obj, config.scale, mass),
+            "generator_handle_kind": generator.get("handle_kind")}
 
 
 def numeric_cell(values: list[float]) -> str:
@@ -190,6 +196,11 @@ def markdown(mixes: dict[str, list[dict]], real: list[dict], n: int, seed: int, 
                    if r[k] is not None and not inside(r[k], [x[k] for x in same if x[k] is not None])]
             cells.append(", ".join(out) or "none")
         lines.append(f"| {r['object']} ({r['target_part']}) | " + " | ".join(cells) + " |")
+    kinds = {m: counts(rows, "generator_handle_kind") for m, rows in mixes.items()}
+    if any(kinds.values()):
+        lines += ["", "Handle kinds the generator drew (meta.json; objects whose generator records none are left out): "
+                  + "; ".join(f"{MIXES[m]}: " + (", ".join(f"{v} {k}" for v, k in c.items()) or "—")
+                              for m, c in kinds.items()) + "."]
     return "\n".join(lines) + "\n"
 
 

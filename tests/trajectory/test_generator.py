@@ -55,7 +55,7 @@ def test_procedural_categories_pass_the_gate_and_are_tracked_at_x1(tmp_path, cat
 def test_the_gate_keeps_the_palm_on_the_handle_until_q_done(tmp_path):
     """A bottom-hinged dishwasher door whose first palm placement drifts more than d_detach from the handle
     before q_done (tracking it from the reset detached): that placement fails, the next one is kept."""
-    folder = procedural.write_object(procedural.make_object("dishwasher", 100), tmp_path / "dw", "dw")
+    folder = procedural.write_object(procedural.make_object("dishwasher", 112), tmp_path / "dw", "dw")
     t = generate(load_gapartnet(folder))
     first, kept = t.header["generator"]["attempts"][0], t.header["generator"]["attempts"][-1]
     limit = GeneratorParams().max_palm_distance
