@@ -21,7 +21,8 @@ from dragmesh2_jax.ppo.train import TrainProgram, epoch_jit, epoch_runs, init_ji
 from dragmesh2_jax.runs.build import load_task, mix_of, program_of
 from dragmesh2_jax.runs.spec import method_spec
 from dragmesh2_jax.task.config import TaskConfig
-from dragmesh2_jax.task.env import PullTask, make_batched
+from dragmesh2_jax.task.env import make_batched
+from dragmesh2_jax.task.protocol import Env
 from dragmesh2_jax.task.wrappers import AutoReset
 
 
@@ -37,20 +38,17 @@ def machine() -> dict:
             "device": str(devs[0].device_kind if devs else "?"), "jax": jax.__version__}
 
 
-def engine_name(task: PullTask) -> str:
+def engine_name(task: Env) -> str:
     """``mujoco`` (the C engine), ``mjx-jax`` or ``mjx-warp``."""
-    b = task.backend
-    return b.name if b.name == "mujoco" else f"{b.name}-{b.impl}"
+    return task.engine if task.engine == "mujoco" else f"{task.engine}-{task.config.impl}"
 
 
-def buffers(task: PullTask) -> dict:
+def buffers(task: Env) -> dict:
     """Contact slots and constraint rows one world of the task's engine holds (the C engine's grow as needed)."""
-    if task.backend.name == "mujoco":
-        return {"contact_slots": None, "constraint_rows": None}
-    return {**task.backend.buffers, "budget": task.backend.budget.to_json()}
+    return task.buffers if task.budget is None else {**task.buffers, "budget": task.budget.to_json()}
 
 
-def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
+def bench_env(task: Env, num_envs: int, steps: int, seed: int = 0) -> dict:
     """Time ``steps`` control steps of ``num_envs`` worlds with random actions (compile timed separately)."""
     task = task.sized(num_envs)
     reset, step = make_batched(AutoReset(task))
@@ -76,10 +74,10 @@ def bench_env(task: PullTask, num_envs: int, steps: int, seed: int = 0) -> dict:
     dt = time.perf_counter() - t0
     task.check_overflow(int(overflow), "bench env")
     ctrl = num_envs * steps / dt
-    return {"backend": task.backend.name, "engine": engine_name(task), "num_envs": num_envs, "steps": steps,
+    return {"backend": task.engine, "engine": engine_name(task), "num_envs": num_envs, "steps": steps,
             "compile_s": round(compile_s, 3), "control_steps_per_s": round(ctrl, 1),
             "physics_steps_per_s": round(ctrl * task.substeps, 1), "wall_s": round(dt, 4),
-            "object": task.scene.obj.object_id, "objects": getattr(task, "num_objects", 1), **buffers(task),
+            "object": task.object_id, "objects": len(task.trajectories), **buffers(task),
             **machine()}
 
 
@@ -110,14 +108,14 @@ def bench_train(program: TrainProgram, epochs: int, runs: int = 1) -> dict:
     per = (time.perf_counter() - t0) / epochs
     c = program.config
     steps = runs * c.num_envs * c.rollout_len
-    return {"method": program.name, "backend": program.task.backend.name, "num_envs": c.num_envs,
-            "runs": runs, "object": program.task.scene.obj.object_id, "first_epoch_s": round(first, 2),
+    return {"method": program.name, "backend": program.task.engine, "num_envs": c.num_envs,
+            "runs": runs, "object": program.task.object_id, "first_epoch_s": round(first, 2),
             "s_per_epoch": round(per, 4), "env_steps_per_s": round(steps / per, 1),
             "physics_steps_per_s": round(steps * program.task.substeps / per, 1),
             "budget_s": round(first + (PAPER_EPOCHS - 1) * per, 1), **machine()}
 
 
-def bench_soak(task: PullTask, dampings: list[float], num_envs: int, steps: int, seed: int = 0) -> list[dict]:
+def bench_soak(task: Env, dampings: list[float], num_envs: int, steps: int, seed: int = 0) -> list[dict]:
     """Random actions in [-1, 1] for ``steps`` control steps in ``num_envs`` worlds per damping multiplier, all in
     one rollout: per damping the worlds whose physics went non-finite (the task resets and counts each, and the rest
     of the batch goes on: the batch's final observations are checked finite)."""
@@ -146,7 +144,7 @@ def bench_soak(task: PullTask, dampings: list[float], num_envs: int, steps: int,
     rows = []
     for i, d in enumerate(dampings):
         w = slice(i * num_envs, (i + 1) * num_envs)
-        rows.append({"object": task.scene.obj.object_id, "backend": task.backend.name, "damping": d,
+        rows.append({"object": task.object_id, "backend": task.engine, "damping": d,
                      "worlds": num_envs, "physics_steps": num_envs * steps * task.substeps,
                      "nonfinite_events": int(bad[w].sum()), "nonfinite_worlds": int((bad[w] > 0).sum()),
                      "episodes": int(episodes[w].sum()), "batch_finite": bool(finite[w].all()),

@@ -74,7 +74,7 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
         f"- reference trajectory: {len(traj.frames)} frames, quality gate {'passed' if q.get('passed') else 'n/a'}; "
         f"q_start {traj.q_start:.4f}, q_done {traj.q_done:.4f}, q_goal {traj.q_goal:.4f}",
         f"- training: {epochs} epochs x {program.config.num_envs} envs x {program.config.rollout_len} steps on the "
-        f"{program.task.backend.name} backend; final training success {rows[-1]['success']:.2f}, "
+        f"{program.task.engine} backend; final training success {rows[-1]['success']:.2f}, "
         f"{rows[-1]['seconds']:.0f} s",
         f"- wall time (all stages): {time.time() - t0:.0f} s on {jax.default_backend()}", "",
         f"## Evaluation of `{ck.name}` ({protocol.episodes} episodes per cell, each from a perturbed expert grasp; 95% "

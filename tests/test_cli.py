@@ -136,7 +136,7 @@ FLAG_VALUES = {
     "schedule": {"epochs": 3, "seed": 5, "save_every": 2, "robust_every": 0, "checkpoint": "final",
                  "dampings": (1.0, 8.0)},
     "task": {"alpha": 0.04, "control_dt": 1 / 30, "episode_length": 200, "history_len": 8, "aux_window": 3,
-             "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0), "damping_fixed": 2.0,
+             "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0),
              "friction_range": (0.8, 1.2), "force_obs": True, "nthread": 1, "contacts": 48},
     "scene": {"scale": 0.45, "object_pos": (0.55, 0.0, 0.6), "timestep": 1 / 120, "damping": 20.0, "armature": 0.01,
               "link_areal_density": 4.0, "friction": 1.2, "collide": "all", "collision_radius": 0.3,

@@ -234,8 +234,8 @@ def cmd_train(args) -> int:
         **config_changes(args, "ppo"))
     for seed, rows in logs:
         last = rows[-1] if rows else {}
-        print(f"{args.out}: {program.name} seed {seed} on {program.task.scene.obj.object_id} "
-              f"({program.task.backend.name}), {last.get('epoch', 0)} epochs, training success "
+        print(f"{args.out}: {program.name} seed {seed} on {program.task.object_id} "
+              f"({program.task.engine}), {last.get('epoch', 0)} epochs, training success "
               f"{last.get('success', 0):.2f}, reward {last.get('reward', 0):.2f}, {last.get('seconds', 0):.0f} s")
     return 0
 

@@ -22,6 +22,7 @@ from dragmesh2_jax.evaluation.rollout import cells, rollout
 from dragmesh2_jax.io import atomic_write_figure
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.task.env import PullTask
+from dragmesh2_jax.task.protocol import Env
 
 
 def robustness(records: list[dict], modes: list[str]) -> dict:
@@ -35,7 +36,7 @@ def robustness(records: list[dict], modes: list[str]) -> dict:
     return out
 
 
-def evaluate(task: PullTask, controller: Controller, protocol: EvalProtocol) -> dict:
+def evaluate(task: Env, controller: Controller, protocol: EvalProtocol) -> dict:
     """Every (damping, mode) cell of ``protocol`` on ``task`` (the protocol's task: ``protocol.task(...)``, or a
     controller's own task with the protocol's starts)."""
     if task.config.reset_noise != protocol.starts:
@@ -48,7 +49,7 @@ def evaluate(task: PullTask, controller: Controller, protocol: EvalProtocol) -> 
                          protocol.seed, controller.controls, key=key)
         records += [{**r, "mode": m} for r in cells(result, dampings, protocol.episodes)]
     return {"cells": records, "robustness": robustness(records, list(protocol.modes)),
-            "object_id": task.scene.obj.object_id, "method": controller.name, "backend": task.backend.name,
+            "object_id": task.object_id, "method": controller.name, "backend": task.engine,
             "protocol": dataclasses.asdict(protocol)}
 
 

@@ -18,8 +18,7 @@ from dataclasses import dataclass
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.task.config import ResetNoise
-from dragmesh2_jax.task.env import PullTask
-from dragmesh2_jax.task.mix import ObjectMix
+from dragmesh2_jax.task.protocol import Env
 
 MODES = ("det", "stoch")
 PAPER_DAMPINGS = (1.0, 2.0, 4.0)  # paper §4: nominal, mild and strong (OOD) contact-load shift
@@ -55,13 +54,10 @@ class EvalProtocol:
         return (f"x{'-'.join(f'{d:g}' for d in self.dampings)}_{'-'.join(self.modes)}_n{self.episodes}_{starts}"
                 f"_s{self.seed}")
 
-    def task(self, task: PullTask | ObjectMix) -> PullTask | ObjectMix:
+    def task(self, task: Env) -> Env:
         """The protocol's task for ``task``'s object (or each object of a mix), trajectory and observation: its
-        starts; the damping is fixed per cell by the evaluator."""
-        if isinstance(task, ObjectMix):
-            return ObjectMix([self.task(t) for t in task.tasks])
-        config = dataclasses.replace(task.config, reset_noise=self.starts, damping_fixed=None)
-        return PullTask(task.scene, task.traj, config)
+        starts; the damping is fixed per cell by the evaluator (``reset(key, damping_scale)``)."""
+        return task.with_starts(self.starts)
 
 
 #: The paper's protocol with the project's perturbed starts (the default of ``evaluate``, ``reproduce``, the demo).

@@ -13,9 +13,8 @@ program once: a second object of the same structure (``task.data``, an argument)
 
 Python loops over epochs (``train`` with callbacks: logs, checkpoints and robustness checks are the caller's).
 Time-limit truncations bootstrap from V(final observation); terminations (success, detachment) do not. The
-reward's adaptive weights, ARAM's (design §5, ``ts.aram_lambda``) and the constraints' Lagrange multipliers
-(``ts.multipliers``, dual ascent on each epoch's mean cost), are bound into the task's reward parameters for the
-epoch's rollout and moved once per epoch.
+reward's adaptive weights are the task's (``task.adaptive_weights``): the train state keeps them, the task binds
+them into each epoch's rollout (``task.bind_weights``) and moves them after it (``task.update_weights``).
 """
 
 from __future__ import annotations
@@ -38,10 +37,9 @@ from dragmesh2_jax.policies.networks import ActorCritic, NetworkConfig, make_inf
 from dragmesh2_jax.policies.normalize import RunningStats
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.losses import Batch, compute_gae, compute_ppo_loss, gaussian_logp
-from dragmesh2_jax.task.config import AramConfig, Constraint
-from dragmesh2_jax.task.env import PullTask, TaskData
-from dragmesh2_jax.task.protocol import CLIP_LEVEL, Obs
-from dragmesh2_jax.task.rewards import TERM_PREFIX, cost_metric
+from dragmesh2_jax.task.env import TaskData
+from dragmesh2_jax.task.protocol import CLIP_LEVEL, Env, Obs
+from dragmesh2_jax.task.rewards import TERM_PREFIX
 from dragmesh2_jax.task.wrappers import AutoReset
 
 RUN_AXIS = "runs"  # the mesh axis the run (seed) axis is sharded over
@@ -60,8 +58,15 @@ class TrainState:
     rng: jax.Array
     epoch: jnp.ndarray
     lr: jnp.ndarray
-    aram_lambda: jnp.ndarray  # the ARAM weight of the reward (0 unless the task's reward has ARAM)
-    multipliers: jnp.ndarray  # the reward's constraints' Lagrange multipliers, in its order (shape (0,) without)
+    # the task's adaptive reward weights (``task.adaptive_weights``), each under its own name (checkpoints store it;
+    # a task without one leaves its default): ARAM's weight, the constraints' Lagrange multipliers in their order
+    aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
+    multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
+
+    @property
+    def weights(self) -> dict:
+        """The task's adaptive reward weights, by name (``replace(**weights)`` stores them back)."""
+        return {"aram_lambda": self.aram_lambda, "multipliers": self.multipliers}
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,7 +74,7 @@ class TrainProgram:
     """The static part of training: ``task`` (its data is an argument of every program), ``network``, ``config``
 and ``name`` (the method's, shown in progress and results). Equal (and hashed) by :meth:`signature`."""
 
-    task: PullTask
+    task: Env
     network: NetworkConfig
     config: PPOConfig
     name: str
@@ -115,7 +120,7 @@ and ``name`` (the method's, shown in progress and results). Equal (and hashed) b
         return Controller(self.name, self.make_policy, policy_params(ts), key=self.signature)
 
 
-def make_train(task: PullTask, network: NetworkConfig = NetworkConfig(), config: PPOConfig = PPOConfig(),
+def make_train(task: Env, network: NetworkConfig = NetworkConfig(), config: PPOConfig = PPOConfig(),
                name: str = "pica") -> TrainProgram:
     return TrainProgram(task, network, config, name)
 
@@ -126,13 +131,10 @@ def policy_params(ts: TrainState) -> dict:
 
 
 def _env(program: TrainProgram, data: TaskData, ts: TrainState | None = None) -> AutoReset:
-    """The auto-resetting env over ``data``, the reward's adaptive weights of ``ts`` bound in where the reward has
-    them (``None``: a new run's, 0)."""
-    reward = program.task.config.reward
-    if ts is not None and reward.aram is not None:
-        data = data.replace(params=data.params.replace(aram_lambda=ts.aram_lambda))
-    if ts is not None and reward.constraints:
-        data = data.replace(params=data.params.replace(multipliers=ts.multipliers))
+    """The auto-resetting env over ``data``, the reward's adaptive weights of ``ts`` bound in (``None``: the
+    task's own, a new run's)."""
+    if ts is not None:
+        data = program.task.bind_weights(data, ts.weights)
     return AutoReset(program.task.bind(data))
 
 
@@ -159,8 +161,7 @@ def init(program: TrainProgram, data: TaskData, key: jax.Array) -> TrainState:
                       aux_stats=RunningStats.create(obs.aux.shape[-1]),
                       privileged_stats=RunningStats.create(obs.privileged.shape[-1]),
                       value_stats=RunningStats.create(1), rng=rng, epoch=jnp.int32(0), lr=jnp.float32(c.lr),
-                      aram_lambda=jnp.float32(0.0),
-                      multipliers=jnp.zeros(len(program.task.config.reward.constraints), jnp.float32))
+                      **program.task.adaptive_weights())
 
 
 def _rollout(program: TrainProgram, data: TaskData, ts: TrainState):
@@ -194,19 +195,6 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState):
     return env_state, rng, traj, adv, ret
 
 
-def aram_update(cfg: AramConfig, lam, metrics: dict):
-    """lambda_ARAM once per epoch (design §5): when the epoch's success exceeds the gate,
-    lambda <- clip(lambda + lr (clip099 - target), 0, lambda_max)."""
-    ok = (metrics["success"] > cfg.success_gate) & (metrics["episodes"] > 0)
-    return jnp.where(ok, jnp.clip(lam + cfg.lr * (metrics["clip099"] - cfg.target), 0.0, cfg.lambda_max), lam)
-
-
-def multiplier_update(cfg: Constraint, lam, mean_cost):
-    """A constraint's multiplier once per epoch, by dual ascent on the epoch's mean cost per step:
-    lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max)."""
-    return jnp.clip(lam + cfg.lr * (mean_cost - cfg.budget), 0.0, cfg.lambda_max)
-
-
 def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainState, dict]:
     """One epoch: rollout, GAE, PPO update. Returns the new state and the epoch's metrics (every one is logged)."""
     c, net = program.config, program.net
@@ -216,7 +204,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
     flat = lambda x: x.reshape(n, *x.shape[2:])  # noqa: E731
     obs = jax.tree.map(flat, traj["obs"])
     s_in, h_in, p_in = _inputs(program, ts, obs)
-    if program.network.encoder == "gla":  # each distinct history token through GLA's projections once
+    if program.network.encoder != "none":  # a rollout's windows share their tokens: each held (and projected) once
         norm = ts.token_stats.normalize if c.normalize_obs else (lambda x: x)
         h_in = TokenWindows.of_rollout(traj["obs"].history, traj["done"], norm)
     # values were predicted in the old value normalisation: re-express old predictions and targets in the new
@@ -268,18 +256,9 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
         "clip099_active": jnp.mean(m["active_abs_max"] > CLIP_LEVEL),
         "action_l2": m["action_l2"].mean(), "nonfinite": m["nonfinite"].sum(), "overflow": m["overflow"].sum(),
     }
-    constraints = program.task.config.reward.constraints
-    metrics |= {cost_metric(x): m[cost_metric(x)].mean() for x in constraints}
     metrics |= {k: v.mean() for k, v in m.items() if k.startswith(TERM_PREFIX)}  # per step, before normalisation
-    if constraints:
-        ts = ts.replace(multipliers=jnp.stack([multiplier_update(x, ts.multipliers[i], metrics[cost_metric(x)])
-                                               for i, x in enumerate(constraints)]))
-        metrics |= {f"lambda_{x.measure}": ts.multipliers[i] for i, x in enumerate(constraints)}
-    aram = program.task.config.reward.aram
-    if aram is not None:
-        ts = ts.replace(aram_lambda=aram_update(aram, ts.aram_lambda, metrics))
-        metrics["aram_lambda"] = ts.aram_lambda
-    return ts.replace(env_state=env_state, rng=rng, epoch=ts.epoch + 1), metrics
+    weights, metrics = program.task.update_weights(ts.weights, metrics, m)
+    return ts.replace(**weights, env_state=env_state, rng=rng, epoch=ts.epoch + 1), metrics
 
 
 # ------------------------------------------------------------------------------- compiled programs

@@ -184,7 +184,7 @@ def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "ja
     trajectories = trajectories or run.trajectories()
     program = program_of(spec.on(backend or trained_on, impl), trajectories)
     fresh = init_jit(program, program.data(), seed_keys([spec.schedule.seed])[0])
-    if program.task.backend.name == trained_on:
+    if program.task.engine == trained_on:
         return program, load_checkpoint(fresh, ck, keep_env=keep_env), run, ck
     source = program_of(spec.on(trained_on, impl), trajectories)
     src = load_checkpoint(init_jit(source, source.data(), seed_keys([spec.schedule.seed])[0]), ck, keep_env=True)
@@ -212,7 +212,7 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
     if more < 1:
         raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")
     parent, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
-    spec = finetune_spec(run.spec().on(parent.task.backend.name, impl), recipe, str(ck.resolve()),
+    spec = finetune_spec(run.spec().on(parent.task.engine, impl), recipe, str(ck.resolve()),
                          int(ts.epoch) + more, schedule)
     trajectories = run.trajectories()
     if object_dir:
@@ -220,14 +220,9 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
     program = program_of(spec, trajectories)
     start = load_checkpoint(init_jit(program, program.data(), seed_keys([spec.schedule.seed])[0]), ck,
                             keep_env=True)
-    _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=[t.traj for t in tasks_of_program(program)],
+    _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=list(program.task.trajectories),
                                  resume=False, start=start, selection=selection, progress=progress)
     return ck, logs[0]
-
-
-def tasks_of_program(program: TrainProgram) -> list:
-    """The tasks a program trains on (one, or each object of a mix)."""
-    return list(getattr(program.task, "tasks", (program.task,)))
 
 
 def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend: str | None = None,

@@ -180,8 +180,8 @@ class TaskConfig:
     rho: float = RHO  # success threshold: q_done = q_min + rho (q_max - q_min) over the trajectory
     d_detach: float = 0.10  # m
     settle_substeps: int = RESET_SETTLE_SUBSTEPS  # physics steps from rest after writing the start (design §4)
-    damping_range: tuple[float, float] = (1.0, 2.0)  # x nominal, sampled per reset (training)
-    damping_fixed: float | None = None  # evaluation: a fixed multiplier (x1, x2, x4, ...) instead
+    damping_range: tuple[float, float] = (1.0, 2.0)  # x nominal, sampled per reset (an evaluation cell fixes its
+    # own: ``PullTask.reset(key, damping_scale)``)
     friction_range: tuple[float, float] | None = None  # object friction scale; off by default
     reset_noise: ResetNoise | None = None  # None: the paper's exact expert-grasp reset
     force_obs: bool = False  # beyond the paper: contact-load sensors in s_t and in every history token
@@ -190,6 +190,15 @@ class TaskConfig:
     contacts: int | None = None  # MJX contact slots per world (None: sized from a probe, physics/contacts.py)
     nthread: int | None = None  # C backend threads (default: all cores)
     reward: RewardConfig = field(default_factory=RewardConfig)
+
+    @staticmethod
+    def upgrade(data: dict) -> dict:
+        """A record from before the damping was fixed one way (``reset(key, damping_scale)``): its
+        ``damping_fixed`` multiplier x is the range (x, x), which every reset samples as x."""
+        fixed = data.pop("damping_fixed", None)
+        if fixed is not None:
+            data["damping_range"] = [fixed, fixed]
+        return data
 
     def __post_init__(self):
         if not 0 < self.alpha <= MAX_ALPHA:
@@ -206,8 +215,6 @@ class TaskConfig:
         lo, hi = self.damping_range
         if not 0 <= lo <= hi:
             raise DragMeshError(f"damping_range must satisfy 0 <= lo <= hi, got {self.damping_range}")
-        if self.damping_fixed is not None and not (math.isfinite(self.damping_fixed) and self.damping_fixed >= 0):
-            raise DragMeshError(f"damping multiplier must be finite and >= 0, got {self.damping_fixed}")
         if not all(math.isfinite(x) for x in self.damping_range):
             raise DragMeshError(f"damping_range must be finite, got {self.damping_range}")
         if self.friction_range is not None and not (

@@ -39,6 +39,7 @@ distribution, not one episode repeated).
 from __future__ import annotations
 
 import copy
+import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -59,11 +60,14 @@ from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import (
     TERM_PREFIX,
     aram_penalty,
+    bound_weights,
     constraint_cost,
     cost_metric,
+    initial_weights,
     reconfig_bonus,
     reward_terms,
     term_names,
+    update_weights,
 )
 from dragmesh2_jax.trajectory.schema import RHO, Trajectory
 
@@ -239,8 +243,49 @@ class PullTask:
     def params(self) -> TaskParams:
         return self.data.params
 
+    @property
+    def object_id(self) -> str:
+        return self.scene.obj.object_id
+
+    @property
+    def engine(self) -> str:
+        """The physics engine: ``mujoco`` (the C engine) or ``mjx`` (``config.impl`` says which MJX)."""
+        return self.backend.name
+
+    @property
+    def budget(self) -> ContactBudget | None:
+        """MJX's contact budget (its static buffers); None on the C engine, which sizes its own as it goes."""
+        return self.backend.budget
+
+    @property
+    def buffers(self) -> dict:
+        """Contact slots and constraint rows one world holds (None on the C engine)."""
+        return self.backend.buffers if self.budget is not None else {"contact_slots": None, "constraint_rows": None}
+
+    @property
+    def trajectories(self) -> tuple[Trajectory, ...]:
+        return (self.traj,)
+
+    def with_starts(self, starts: ResetNoise | None) -> PullTask:
+        """This object and trajectory from other reset starts (an evaluation protocol's)."""
+        return PullTask(self.scene, self.traj, dataclasses.replace(self.config, reset_noise=starts))
+
     def kinematics(self, ps) -> Kinematics:
         return self.backend.kinematics(self.data.physics, ps)
+
+    # ------------------------------------------------------------------- the reward's adaptive weights
+    def adaptive_weights(self) -> dict[str, jnp.ndarray]:
+        """A new run's adaptive reward weights (``rewards.initial_weights``): the trainer keeps them, binds them into
+        each epoch's rollout (:meth:`bind_weights`) and moves them after it (:meth:`update_weights`)."""
+        return initial_weights(self.config.reward)
+
+    def bind_weights(self, data: TaskData, weights: dict) -> TaskData:
+        """``data`` with the adaptive weights its reward reads set to ``weights``."""
+        return data.replace(params=data.params.replace(**bound_weights(self.config.reward, weights)))
+
+    def update_weights(self, weights: dict, metrics: dict, steps: dict) -> tuple[dict, dict]:
+        """The weights after an epoch of ``metrics`` (per-step ``steps``), and the metrics with theirs added."""
+        return update_weights(self.config.reward, weights, metrics, steps)
 
     # ------------------------------------------------------------------------------------------ helpers
     def _phi(self, q):
@@ -282,14 +327,12 @@ class PullTask:
     # --------------------------------------------------------------------------------------------- API
     def reset(self, key: jax.Array, damping_scale: jax.Array | float | None = None, start=None) -> State:
         """A new episode at the expert grasp state (post-settle). The randomised multipliers are drawn
-        (``randomize.sample``); the damping multiplier is fixed instead by ``damping_scale`` (or
-        ``config.damping_fixed``), and a fixed multiplier is kept by every automatic reset of that world
-        (evaluation cells). ``start``: the index of the start state (modulo the bank; an evaluation gives each
-        episode of a cell its own), else drawn at random."""
+        (``randomize.sample``); the damping multiplier is fixed instead by ``damping_scale`` (the one way to fix
+        it), and a fixed multiplier is kept by every automatic reset of that world (evaluation cells). ``start``:
+        the index of the start state (modulo the bank; an evaluation gives each episode of a cell its own), else
+        drawn at random."""
         key, sub = jax.random.split(key)
         scales = randomize.sample(sub, self.config)
-        if damping_scale is None and self.config.damping_fixed is not None:
-            damping_scale = self.config.damping_fixed
         fixed = damping_scale is not None
         if fixed:
             scales[randomize.DAMPING] = jnp.asarray(damping_scale, jnp.float32)

@@ -21,8 +21,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.physics.contacts import ContactBudget
+from dragmesh2_jax.scene import Scene
+from dragmesh2_jax.task.config import ResetNoise, TaskConfig
 from dragmesh2_jax.task.env import PullTask, TaskData
 from dragmesh2_jax.task.protocol import State
+from dragmesh2_jax.trajectory.schema import Trajectory
 
 
 def _pad(x, n: int, axis: int):
@@ -71,12 +75,56 @@ class ObjectMix:
                 raise DragMeshError(f"object {t.scene.obj.object_id}: another state layout than the first object's")
         self.tasks, self.base = tuple(tasks), base
         self.data = stack_data(tasks)
-        self.config, self.action_size, self.backend = base.config, base.action_size, base.backend
-        self.scene, self.traj, self.substeps, self.active = base.scene, base.traj, base.substeps, base.active
 
     @property
     def num_objects(self) -> int:
         return len(self.tasks)
+
+    # what every object shares (checked above), read from the first
+    @property
+    def config(self) -> TaskConfig:
+        return self.base.config
+
+    @property
+    def action_size(self) -> int:
+        return self.base.action_size
+
+    @property
+    def substeps(self) -> int:
+        return self.base.substeps
+
+    @property
+    def num_starts(self) -> int:
+        return self.base.num_starts
+
+    @property
+    def engine(self) -> str:
+        return self.base.engine
+
+    @property
+    def budget(self) -> ContactBudget | None:
+        return self.base.budget
+
+    @property
+    def buffers(self) -> dict:
+        return self.base.buffers
+
+    @property
+    def object_id(self) -> str:
+        """The first object's (a mix is named by it, with ``num_objects``)."""
+        return self.base.object_id
+
+    @property
+    def scene(self) -> Scene:
+        """The first object's scene (what a picture of the mix draws)."""
+        return self.base.scene
+
+    @property
+    def trajectories(self) -> tuple[Trajectory, ...]:
+        return tuple(t.traj for t in self.tasks)
+
+    def with_starts(self, starts: ResetNoise | None) -> ObjectMix:
+        return ObjectMix([t.with_starts(starts) for t in self.tasks])
 
     def bind(self, data: TaskData) -> ObjectMix:
         mix = copy.copy(self)
@@ -99,6 +147,17 @@ class ObjectMix:
 
     def kinematics(self, ps):
         return self.base.kinematics(ps)  # every object has the same state layout (checked)
+
+    def adaptive_weights(self) -> dict[str, jnp.ndarray]:
+        return self.base.adaptive_weights()  # every object has the same task config (checked)
+
+    def bind_weights(self, data: TaskData, weights: dict) -> TaskData:
+        """``data`` with ``weights`` bound for every object (one set of weights for the whole mix)."""
+        stacked = jax.tree.map(lambda w: jnp.broadcast_to(w, (self.num_objects, *jnp.shape(w))), weights)
+        return self.base.bind_weights(data, stacked)
+
+    def update_weights(self, weights: dict, metrics: dict, steps: dict) -> tuple[dict, dict]:
+        return self.base.update_weights(weights, metrics, steps)
 
     def _with_object(self, state: State, index) -> State:
         return state.replace(info={**state.info, "object": jnp.asarray(index, jnp.int32)})

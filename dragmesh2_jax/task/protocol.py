@@ -1,7 +1,7 @@
 """The env protocol: what training, evaluation and the baselines may rely on, and nothing more.
 
-An env is one world: ``reset(key, damping_scale=None) -> State`` and ``step(state, action) -> State`` are pure
-functions of a :class:`State` pytree (batch them with ``jax.vmap``); ``restart(state)`` begins the world's next
+An env (:class:`Env`) is one world: ``reset(key, damping_scale=None) -> State`` and ``step(state, action) -> State``
+are pure functions of a :class:`State` pytree (batch them with ``jax.vmap``); ``restart(state)`` begins the world's next
 episode (``wrappers.AutoReset`` calls it where an episode ended). Everything object-specific is the env's
 ``data``, an argument of every compiled program: ``bind(data)`` gives the same env over other data (another object
 of the same structure, or the tracers of a traced function), and ``signature()`` says what else a compiled program
@@ -24,6 +24,11 @@ from typing import Any, Protocol
 import jax
 import jax.numpy as jnp
 from flax import struct
+
+from dragmesh2_jax.physics.base import Kinematics
+from dragmesh2_jax.physics.contacts import ContactBudget
+from dragmesh2_jax.task.config import ResetNoise, TaskConfig
+from dragmesh2_jax.trajectory.schema import Trajectory
 
 #: A step whose largest |a_i| exceeds this counts as saturated (clip099, design §8).
 CLIP_LEVEL = 0.99
@@ -55,20 +60,64 @@ class State:
 
 
 class Env(Protocol):
+    """What training, evaluation, an object mix and the benchmarks read of an env (``PullTask``, ``ObjectMix``)."""
+
     action_size: int
-    data: Any
+    data: Any  # everything object-specific: an argument of every compiled program
+    config: TaskConfig
+    substeps: int  # physics steps per control step
+    num_starts: int  # the start bank a reset draws from
+    object_id: str  # the object's (a mix's first object's)
+    engine: str  # the physics engine: "mujoco" (the C engine) or "mjx" (``config.impl`` says which)
+    budget: ContactBudget | None  # MJX's contact budget (static buffers); None on the C engine
+    buffers: dict  # contact slots and constraint rows one world holds (None on the C engine)
+    trajectories: tuple[Trajectory, ...]  # the reference trajectory of each object
 
     def bind(self, data: Any) -> Env: ...
 
     def signature(self) -> Hashable: ...
 
-    def reset(self, key: jax.Array, damping_scale: jax.Array | float | None = None, start=None) -> State: ...
+    def sized(self, worlds: int) -> Env:
+        """The env for a batch of ``worlds`` worlds (an engine's shared buffers sized for them)."""
+        ...
+
+    def with_starts(self, starts: ResetNoise | None) -> Env:
+        """The same objects and trajectories, reset from other starts (an evaluation protocol's)."""
+        ...
+
+    def check_overflow(self, count: int, where: str) -> None:
+        """A clear error when ``count`` world-steps overflowed the engine's buffers."""
+        ...
+
+    def kinematics(self, physics: Any) -> Kinematics: ...
+
+    def reset(self, key: jax.Array, damping_scale: jax.Array | float | None = None, start=None) -> State:
+        """A new episode; ``damping_scale`` fixes the world's damping multiplier (the one way to fix it: an
+        evaluation cell's), kept by every ``restart`` of that world; ``start`` picks the start state."""
+        ...
 
     def step(self, state: State, action: jnp.ndarray) -> State: ...
+
+    def step_target(self, state: State, target: jnp.ndarray) -> State:
+        """A step with the PD target given directly (controllers of ``controls == "targets"``)."""
+        ...
 
     def restart(self, state: State) -> State:
         """A new episode for the world of ``state`` (its episode ended): fresh randomisation, but what the world
         fixes (an evaluation cell's damping) is kept. ``wrappers.AutoReset`` calls it."""
+        ...
+
+    def adaptive_weights(self) -> dict[str, jnp.ndarray]:
+        """A new run's adaptive reward weights, by name: the trainer keeps them and knows nothing else of them."""
+        ...
+
+    def bind_weights(self, data: Any, weights: dict) -> Any:
+        """``data`` with the adaptive weights ``weights`` bound in (an epoch's rollout)."""
+        ...
+
+    def update_weights(self, weights: dict, metrics: dict, steps: dict) -> tuple[dict, dict]:
+        """The weights after an epoch (its ``metrics``; ``steps`` its per-step metrics) and the metrics with
+        what moved them and their new values added."""
         ...
 
 

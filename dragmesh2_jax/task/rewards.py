@@ -1,4 +1,6 @@
-"""Reward terms (paper Appendix A.3, eq. totalreward) as pure functions of one world's step quantities."""
+"""Reward terms (paper Appendix A.3, eq. totalreward) as pure functions of one world's step quantities, and the
+reward's adaptive weights (ARAM's lambda, the constraints' Lagrange multipliers): their start values and the rules
+that move them once per epoch (the trainer calls them through the task's hook, ``PullTask.update_weights``)."""
 
 from __future__ import annotations
 
@@ -39,6 +41,46 @@ def reward_terms(cfg: RewardConfig, action: jnp.ndarray, d: jnp.ndarray, dq: jnp
         "bound": -cfg.w_bound * jnp.mean(jnp.maximum(jnp.abs(action) - cfg.a_sat, 0.0) ** 2),
         "contact": -cfg.w_contact * jnp.maximum(d - cfg.d_safe, 0.0) ** 2,
     }
+
+
+def initial_weights(cfg: RewardConfig) -> dict[str, jnp.ndarray]:
+    """The adaptive weights of a new run: ARAM's lambda 0 and one multiplier 0 per constraint (in its order)."""
+    return {"aram_lambda": jnp.float32(0.0), "multipliers": jnp.zeros(len(cfg.constraints), jnp.float32)}
+
+
+def bound_weights(cfg: RewardConfig, weights: dict) -> dict:
+    """Those of ``weights`` the reward under ``cfg`` reads (the others stay as the task's parameters hold them)."""
+    return {k: w for k, w in weights.items()
+            if (k == "aram_lambda" and cfg.aram is not None) or (k == "multipliers" and cfg.constraints)}
+
+
+def aram_update(cfg: AramConfig, lam, metrics: dict):
+    """lambda_ARAM once per epoch (design §5): when the epoch's success exceeds the gate,
+    lambda <- clip(lambda + lr (clip099 - target), 0, lambda_max)."""
+    ok = (metrics["success"] > cfg.success_gate) & (metrics["episodes"] > 0)
+    return jnp.where(ok, jnp.clip(lam + cfg.lr * (metrics["clip099"] - cfg.target), 0.0, cfg.lambda_max), lam)
+
+
+def multiplier_update(cfg: Constraint, lam, mean_cost):
+    """A constraint's multiplier once per epoch, by dual ascent on the epoch's mean cost per step:
+    lambda <- clip(lambda + lr (J_c - budget), 0, lambda_max)."""
+    return jnp.clip(lam + cfg.lr * (mean_cost - cfg.budget), 0.0, cfg.lambda_max)
+
+
+def update_weights(cfg: RewardConfig, weights: dict, metrics: dict, steps: dict) -> tuple[dict, dict]:
+    """The adaptive weights after an epoch, and its metrics with each constraint's mean cost per step (from the
+    rollout's per-step metrics ``steps``), each multiplier (``lambda_<measure>``) and ARAM's ``aram_lambda`` added.
+    ``metrics`` holds the epoch's ``success``, ``episodes`` and ``clip099`` (ARAM's gate and signal)."""
+    weights, metrics = dict(weights), dict(metrics)
+    metrics |= {cost_metric(x): steps[cost_metric(x)].mean() for x in cfg.constraints}
+    if cfg.constraints:
+        weights["multipliers"] = jnp.stack([multiplier_update(x, weights["multipliers"][i], metrics[cost_metric(x)])
+                                            for i, x in enumerate(cfg.constraints)])
+        metrics |= {f"lambda_{x.measure}": weights["multipliers"][i] for i, x in enumerate(cfg.constraints)}
+    if cfg.aram is not None:
+        weights["aram_lambda"] = aram_update(cfg.aram, weights["aram_lambda"], metrics)
+        metrics["aram_lambda"] = weights["aram_lambda"]
+    return weights, metrics
 
 
 def cost_metric(cfg: Constraint) -> str:

@@ -16,7 +16,6 @@ from dragmesh2_jax.ppo.train import epoch_jit, init_jit, make_train
 from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
-from dragmesh2_jax.task.config import RewardConfig
 from dragmesh2_jax.task.protocol import Obs, State
 from tests.conftest import tiny_program, tiny_spec
 
@@ -28,7 +27,7 @@ class PointMass:
     An env of the protocol (task/protocol.py), so the unchanged training program drives it."""
 
     action_size = 2
-    config = SimpleNamespace(episode_length=30, reward=RewardConfig())
+    config = SimpleNamespace(episode_length=30)
     data = jnp.zeros(())  # nothing object-specific
 
     def bind(self, data):
@@ -66,6 +65,15 @@ class PointMass:
 
     def restart(self, s):
         return self.reset(s.info["rng"])
+
+    def adaptive_weights(self):  # a reward without adaptive weights
+        return {}
+
+    def bind_weights(self, data, weights):
+        return data
+
+    def update_weights(self, weights, metrics, steps):
+        return weights, metrics
 
 
 def test_ppo_solves_a_point_mass():

@@ -45,7 +45,7 @@ dragmesh2 = installed_command()
 
 
 def test_configs_round_trip_through_json():
-    task = TaskConfig(alpha=0.03, damping_range=(1.0, 3.0), damping_fixed=2.0, reset_noise=ResetNoise(bank=4),
+    task = TaskConfig(alpha=0.03, damping_range=(1.0, 3.0), reset_noise=ResetNoise(bank=4),
                       reward=RewardConfig(w_load=2.0, aram=AramConfig()))
     scene = SceneConfig(damping=25.0, friction=1.0, object_pos=(0.6, 0.1, 0.5))
     for config in (task, scene, PPOConfig(aux_warmup=(5, 20), num_envs=8), TaskConfig(), NetworkConfig(),
@@ -118,12 +118,19 @@ def test_a_malformed_record_is_one_error_line(record, fragment):
     assert RunSpec.from_record(GOOD) == RunSpec("pica", str(Path("obj").resolve()))
 
 
+def test_a_recorded_fixed_damping_reads_as_a_range_of_one_value():
+    """Records from before the damping was fixed one way (``reset(key, damping_scale)``) held ``damping_fixed``."""
+    assert config_from_dict(TaskConfig, {"damping_fixed": None}) == TaskConfig()
+    assert config_from_dict(TaskConfig, {"damping_fixed": 2.0}).damping_range == (2.0, 2.0)
+
+
 NAN, INF = float("nan"), float("inf")
 
 
 @pytest.mark.parametrize("group, field, value", [
     ("ppo", "lr", NAN), ("ppo", "num_envs", 0), ("task", "alpha", NAN), ("task", "rho", NAN),
-    ("task", "damping_fixed", INF), ("scene", "scale", NAN), ("scene", "timestep", NAN), ("scene", "friction", INF),
+    ("task", "damping_range", [1.0, INF]), ("scene", "scale", NAN), ("scene", "timestep", NAN),
+    ("scene", "friction", INF),
     ("ppo", "lr", INF), ("ppo", "gamma", NAN), ("ppo", "gamma", 1e9), ("ppo", "gae_lambda", NAN),
     ("ppo", "clip_eps", NAN), ("task", "alpha", INF), ("task", "alpha", 1e9), ("task", "control_dt", NAN),
     ("task", "d_detach", NAN), ("scene", "scale", INF), ("scene", "object_pos", [NAN, 0.0, 0.6]),

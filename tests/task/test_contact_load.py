@@ -14,13 +14,13 @@ from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.ppo.finetune import PLAUSIBLE
-from dragmesh2_jax.ppo.train import epoch_jit, init_jit, multiplier_update
+from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs.build import load_task, program_of
 from dragmesh2_jax.runs.spec import finetune_spec, method_defaults
 from dragmesh2_jax.scene import FORCE_SIZE
 from dragmesh2_jax.task.config import Constraint, RewardConfig
 from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, Events, make_batched
-from dragmesh2_jax.task.rewards import constraint_cost, reward_terms
+from dragmesh2_jax.task.rewards import constraint_cost, multiplier_update, reward_terms
 from tests.conftest import tiny_spec
 
 OBJ = str(default_object())

@@ -12,6 +12,7 @@ from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import SceneConfig, build_scene
+from dragmesh2_jax.task.config import AramConfig, Constraint, RewardConfig
 from dragmesh2_jax.task.env import PullTask, make_batched
 from dragmesh2_jax.task.mix import ObjectMix
 from dragmesh2_jax.task.wrappers import AutoReset
@@ -57,3 +58,15 @@ def test_on_mjx_only_objects_of_one_structure_share_a_batch():
 def test_objects_of_another_task_config_do_not_mix():
     with pytest.raises(DragMeshError, match="task config"):
         ObjectMix([load_task(DRAWER, None, backend="mujoco"), load_task(DOOR, None, backend="mujoco", alpha=0.03)])
+
+
+def test_a_mix_binds_the_reward_s_adaptive_weights_for_every_object():
+    """One set of ARAM and constraint weights, seen by every object's reward (the trainer's hook)."""
+    reward = RewardConfig(aram=AramConfig(), constraints=(Constraint(measure="load"),))
+    mix = ObjectMix([load_task(o, None, backend="mujoco", reward=reward) for o in (DRAWER, DOOR)])
+    weights = {"aram_lambda": jnp.float32(0.5), "multipliers": jnp.asarray([2.0], jnp.float32)}
+    bound = mix.bind(mix.bind_weights(mix.data, weights))
+    for i in range(mix.num_objects):
+        p = bound.task(i).params
+        assert float(p.aram_lambda) == 0.5 and p.multipliers.tolist() == [2.0]
+    assert {k: v.shape for k, v in mix.adaptive_weights().items()} == {"aram_lambda": (), "multipliers": (1,)}
