@@ -14,7 +14,8 @@ and trains from perturbed starts, and ``pica_grip``: contact-load observation, p
 reward, with the paper's damping range. ``hold`` is PICA trained where the load is (x1-x8, contact load observed),
 ``hold_blind`` (``--method recommended``, the project's recipe for holding a part under load) the same without force
 or touch sensing, ``hold_grip`` with the fixed load-budget reward, ``hold_cmdp`` with the wrist load as a CMDP
-constraint (its penalty weight a Lagrange multiplier) and ``hold_blind_cmdp`` the constraint without the sensing.
+constraint (its penalty weight a Lagrange multiplier) and ``hold_blind_cmdp`` the constraint without the sensing;
+``hold_blind_handle`` is the recipe with the observation that transfers across objects (``task/observation.py``).
 The task itself (action interface, success threshold, damping multipliers, episode length) is the paper's for every
 method.
 """
@@ -39,6 +40,9 @@ NO_PHYSICAL_SIGNALS: dict[str, Any] = {"task.reward.w_bound": 0.0, "task.reward.
 #: perturbed starts.
 HOLD: dict[str, Any] = {"network.critic": "privileged", "task.damping_range": (1.0, 8.0),
                         "task.reset_noise": ResetNoise()}
+#: The recipe: PICA-Hold without the contact-load sensors, twice the paper's budget, read at its final checkpoint.
+HOLD_BLIND: dict[str, Any] = {**HOLD, "schedule.epochs": RECIPE_EPOCHS, "schedule.checkpoint": "final",
+                              "schedule.dampings": RECIPE_DAMPINGS}
 #: Contact-load sensors (wrist F/T, palm and phalanx touch) in s_t and in every history token.
 FORCE_OBS: dict[str, Any] = {"task.force_obs": True}
 
@@ -82,8 +86,11 @@ METHODS = {m.name: m for m in (
     Method("hold_blind", "PICA-Hold without force or touch sensing (the paper's observation): privileged critic, "
            "damping [1, 8], perturbed starts; trained twice the paper's budget and read at its final checkpoint "
            "(best_robust's x1/x2/x4 saturates and keeps an early one: RESULTS.md §3)",
-           {**HOLD, "schedule.epochs": RECIPE_EPOCHS, "schedule.checkpoint": "final",
-            "schedule.dampings": RECIPE_DAMPINGS}),
+           HOLD_BLIND),
+    Method("hold_blind_handle", "the recipe (hold_blind) with the transferable observation (the hand and the joint in "
+           "the handle's frame, the part's state in task units, nothing that identifies the object), for policies "
+           "over many objects (issue 36)",
+           {**HOLD_BLIND, "task.observation": "handle"}),
     Method("hold_blind_cmdp", "PICA-Hold without force or touch sensing and with the wrist load as a CMDP constraint "
            "(the load is seen by the critic and the cost, never by the policy)",
            {**HOLD, "task.reward.constraints": (Constraint(),)}),

@@ -14,6 +14,8 @@ from dragmesh2_jax.trajectory.schema import RHO
 BACKENDS = ("auto", "mjx", "mujoco")
 MAX_ALPHA = 1.0  # the largest action increment (m or rad per control step); the paper's is 0.05
 IMPLS = ("jax", "warp")
+#: s_t's kinds (task/observation.py): the paper's, and one in the handle's frame that transfers across objects.
+OBSERVATIONS = ("paper", "handle")
 
 
 @dataclass(frozen=True)
@@ -185,6 +187,7 @@ class TaskConfig:
     friction_range: tuple[float, float] | None = None  # object friction scale; off by default
     reset_noise: ResetNoise | None = None  # None: the paper's exact expert-grasp reset
     force_obs: bool = False  # beyond the paper: contact-load sensors in s_t and in every history token
+    observation: str = "paper"  # s_t: one of OBSERVATIONS ("handle": transfers across objects, issue 36)
     backend: str = "auto"  # "mjx" | "mujoco" | "auto" (MJX on an accelerator, the C engine on a CPU)
     impl: str = "jax"  # MJX implementation: "jax" | "warp"
     contacts: int | None = None  # MJX contact slots per world (None: sized from a probe, physics/contacts.py)
@@ -208,6 +211,8 @@ class TaskConfig:
                                 f"{self.d_detach}")
         if self.backend not in BACKENDS:
             raise DragMeshError(f"unknown backend {self.backend!r} (choose from {', '.join(BACKENDS)})")
+        if self.observation not in OBSERVATIONS:
+            raise DragMeshError(f"unknown observation {self.observation!r} (choose from {', '.join(OBSERVATIONS)})")
         if self.impl not in IMPLS:
             raise DragMeshError(f"unknown MJX impl {self.impl!r} (choose from {', '.join(IMPLS)})")
         if self.episode_length < 1 or self.history_len < 1 or self.aux_window < 1:

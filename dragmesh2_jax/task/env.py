@@ -9,9 +9,9 @@ physics steps. The policy acts only on the hand: target = clip(q_hand + alpha a,
 joint moves only through contact.
 
 Observation (kept as separate fields, so each policy takes what it may):
-  obs.state    s_t (120): hand q (51), hand qd (51), handle position (3), handle orientation as its long axis
-               and outward normal (6), palm-to-handle vector (3), distance d (1), object q and qd (2), and
-               phi = [progress, (q_done - q) / Delta, Delta = q_goal - q_start] (3).
+  obs.state    s_t (``task/observation.py``): the paper's (120: hand q and qd, handle pose, palm-to-handle vector and
+               distance, object q and qd, phi) or, with ``TaskConfig.observation = "handle"``, one that transfers
+               across objects (110: the hand and the joint in the handle's frame, the part's state in task units).
   obs.history  H_t (L=16, 102): tokens h = [e_t, a_{t-1}], e_t = PD target - hand q, oldest first; zeros at
                reset except the newest token [e_0, 0].
   obs.aux      y_t (4): [q_t - q_{t-K}, max_{t-K..t} d, 1(max d > d_detach), max_{t-K..t} ||e||] with K = 5.
@@ -20,7 +20,7 @@ Observation (kept as separate fields, so each policy takes what it may):
                critic only, never an actor input.
   obs.step     the control step within the episode (0 at reset): what a time-indexed controller reads (the
                tracking baseline's replay, the parallel-jaw primitive's phases); no network input.
-With ``TaskConfig.force_obs`` (beyond the paper) the contact load f_t (22) is appended to s_t (-> 142) and to
+With ``TaskConfig.force_obs`` (beyond the paper) the contact load f_t (22) is appended to s_t (-> 142, or 132) and to
 every history token (-> 124). f_t = signed log1p of [wrist force (3, N), wrist torque (3, N m), normal contact
 force on the palm and each of the 15 phalanges (16, N)], so that a grip and a yank fit one scale.
 
@@ -56,6 +56,7 @@ from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
+from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import (
     TERM_PREFIX,
@@ -71,7 +72,6 @@ from dragmesh2_jax.task.rewards import (
 )
 from dragmesh2_jax.trajectory.schema import RHO, Trajectory
 
-STATE_SIZE = 120
 TOKEN_SIZE = 2 * NUM_DOFS
 AUX_SIZE = 4
 PRIVILEGED_SIZE = len(randomize.RANDOMIZERS) + FORCE_SIZE
@@ -90,6 +90,8 @@ class TaskParams:
     hand_lo: jnp.ndarray
     hand_hi: jnp.ndarray
     revolute: jnp.ndarray  # the target joint is a hinge (bool)
+    joint_axis: jnp.ndarray  # (3,) the target joint's axis in the handle's frame (task/observation.py)
+    hinge_radius: jnp.ndarray  # m, the handle centre's distance from the hinge axis (0 for a slide)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
 
@@ -202,10 +204,12 @@ class PullTask:
         starts = reset_starts(scene, traj, config.reset_noise, start, config.rho)
         self.backend = make_backend(scene, config, starts, traj)
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
+        axis, radius = joint_geometry(scene)
         params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
                             q_done=jnp.float32(traj.q_done_at(config.rho)), damping=jnp.float32(scene.config.damping),
                             hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32),
                             revolute=jnp.bool_(scene.ids.target_is_revolute),
+                            joint_axis=jnp.asarray(axis, jnp.float32), hinge_radius=jnp.float32(radius),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
@@ -288,36 +292,17 @@ class PullTask:
         return update_weights(self.config.reward, weights, metrics, steps)
 
     # ------------------------------------------------------------------------------------------ helpers
-    def _phi(self, q):
-        p = self.params
-        delta = jnp.maximum(p.q_goal - p.q_start, 1e-6)
-        return jnp.stack([jnp.maximum(0.0, (q - p.q_start) / delta), (p.q_done - q) / delta, delta])
-
     def progress(self, q):
         """p_t = max(0, (q - q_start) / (q_goal - q_start)) (paper eq. progress)."""
-        return self._phi(q)[0]
-
-    @staticmethod
-    def _load(k: Kinematics) -> jnp.ndarray:
-        """f_t: the contact-load sensors, signed log1p (N, N m)."""
-        return (jnp.sign(k.force) * jnp.log1p(jnp.abs(k.force))).astype(jnp.float32)
-
-    def _state_obs(self, k: Kinematics) -> jnp.ndarray:
-        rel = k.handle_pos - k.palm
-        d = jnp.linalg.norm(rel)
-        parts = [k.hand_q, k.hand_qd, k.handle_pos, k.handle_rot, rel, d[None], k.obj_q[None], k.obj_qd[None],
-                 self._phi(k.obj_q)]
-        if self.config.force_obs:
-            parts.append(self._load(k))
-        return jnp.concatenate(parts).astype(jnp.float32)
+        return phi(self.params, q)[0]
 
     def _token(self, e, a, k: Kinematics) -> jnp.ndarray:
         """h_t = [e_t, a_{t-1}] (paper), [e_t, a_{t-1}, f_t] with ``force_obs``."""
-        parts = [e, a, self._load(k)] if self.config.force_obs else [e, a]
+        parts = [e, a, load(k)] if self.config.force_obs else [e, a]
         return jnp.concatenate(parts).astype(jnp.float32)
 
     def _privileged(self, info, k: Kinematics) -> jnp.ndarray:
-        return jnp.concatenate([randomize.privileged(info["scales"]), self._load(k)])
+        return jnp.concatenate([randomize.privileged(info["scales"]), load(k)])
 
     def _aux(self, info) -> jnp.ndarray:
         q, dmax = info["q_ring"], info["d_ring"].max()
@@ -362,8 +347,8 @@ class PullTask:
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
             "stall": jnp.int32(0), "cooldown": jnp.int32(0),
         }
-        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(info), privileged=self._privileged(info, k),
-                  step=info["step"])
+        obs = Obs(state=state_obs(c, k, self.params), history=history, aux=self._aux(info),
+                  privileged=self._privileged(info, k), step=info["step"])
         zero = jnp.float32(0.0)
         metrics = ({m: zero for m in METRICS} | {cost_metric(x): zero for x in c.reward.constraints}
                    | {TERM_PREFIX + t: zero for t in term_names(c.reward)})
@@ -474,7 +459,7 @@ class PullTask:
                     "q_prev": ev.q, "ctrl": ctrl, "d_ring": ring(info["d_ring"], ev.d),
                     "q_ring": ring(info["q_ring"], ev.q), "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)),
                     "episode_return": ep_return}
-        obs = Obs(state=self._state_obs(k), history=history, aux=self._aux(new_info),
+        obs = Obs(state=state_obs(self.config, k, self.params), history=history, aux=self._aux(new_info),
                   privileged=self._privileged(new_info, k), step=ev.step)
         metrics = {
             "success": ev.success.astype(jnp.float32), "progress": self.progress(ev.q),

@@ -19,7 +19,8 @@ from dragmesh2_jax.runs.build import load_task, program_of
 from dragmesh2_jax.runs.spec import finetune_spec, method_defaults
 from dragmesh2_jax.scene import FORCE_SIZE
 from dragmesh2_jax.task.config import Constraint, RewardConfig
-from dragmesh2_jax.task.env import PRIVILEGED_SIZE, STATE_SIZE, TOKEN_SIZE, Events, make_batched
+from dragmesh2_jax.task.env import PRIVILEGED_SIZE, TOKEN_SIZE, Events, make_batched
+from dragmesh2_jax.task.observation import STATE_SIZE
 from dragmesh2_jax.task.rewards import constraint_cost, multiplier_update, reward_terms
 from tests.conftest import tiny_spec
 

@@ -10,7 +10,8 @@ import pytest
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import TaskConfig
-from dragmesh2_jax.task.env import AUX_SIZE, STATE_SIZE, TOKEN_SIZE, PullTask, make_batched
+from dragmesh2_jax.task.env import AUX_SIZE, TOKEN_SIZE, PullTask, make_batched
+from dragmesh2_jax.task.observation import STATE_SIZE
 from dragmesh2_jax.task.protocol import METRICS, observation_spec
 from dragmesh2_jax.task.rewards import TERM_PREFIX, term_names
 from dragmesh2_jax.task.wrappers import AutoReset
