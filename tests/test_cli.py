@@ -1,22 +1,25 @@
 """The command line: inspect on real folders, the demo main job."""
 
 import argparse
+import contextlib
 import dataclasses
 import importlib.util
+import io
 import json
+import re
 
 import pytest
 from PIL import Image
 
 from dragmesh2_jax import render
 from dragmesh2_jax.assets.procedural import default_object
-from dragmesh2_jax.cli.flags import CONFIG_CLASSES, config_changes, flag_name
+from dragmesh2_jax.cli.flags import GROUPS, NOT_FLAGS, SHORT_FLAGS, parse_tree, print_tree_help, tree_changes
 from dragmesh2_jax.cli.parser import build_parser
 from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.spec import RunSpec, method_spec
+from dragmesh2_jax.runs.spec import RunSpec, method_defaults, method_spec
 from tests.conftest import installed_command
 
 dragmesh2 = installed_command()
@@ -131,7 +134,7 @@ def test_bad_input_is_one_error_line_and_status_2(argv, tmp_path, capsys):
     assert not (tmp_path / "x").exists()  # nothing was written
 
 
-#: A valid value, not the default, for every config flag of ``train`` (valid together).
+#: A valid value, not the default, for every config flag of ``train`` that is not a nested config (valid together).
 FLAG_VALUES = {
     "schedule": {"epochs": 3, "seed": 5, "save_every": 2, "robust_every": 0, "checkpoint": "final",
                  "dampings": (1.0, 8.0)},
@@ -142,13 +145,22 @@ FLAG_VALUES = {
     "scene": {"scale": 0.45, "object_pos": (0.55, 0.0, 0.6), "timestep": 1 / 120, "damping": 20.0, "armature": 0.01,
               "link_areal_density": 4.0, "friction": 1.2, "collide": "all", "collision_radius": 0.3,
               "gravity": False, "solver_iterations": 5, "ls_iterations": 6},
-    "ppo": {"rollout_len": 16, "gamma": 0.98, "gae_lambda": 0.9, "lr": 1e-4, "kl_threshold": 0.01, "clip_eps": 0.1,
-            "update_epochs": 2, "num_minibatches": 2, "value_coef": 0.5, "clip_value": False, "entropy_coef": 1e-3,
-            "bounds_coef": 0.02, "aux_weight": 0.02, "aux_warmup": (2, 4), "aux_channel_weights": (1.0, 1.0, 1.0, 1.0),
-            "max_grad_norm": 0.5, "normalize_obs": False, "normalize_advantage": False},
+    "ppo": {"num_envs": 8, "rollout_len": 16, "gamma": 0.98, "gae_lambda": 0.9, "lr": 1e-4, "lr_schedule": "adaptive",
+            "kl_threshold": 0.01, "clip_eps": 0.1, "update_epochs": 2, "num_minibatches": 2, "value_coef": 0.5,
+            "clip_value": False, "entropy_coef": 1e-3, "bounds_coef": 0.02, "aux_weight": 0.02, "aux_warmup": (2, 4),
+            "aux_channel_weights": (1.0, 1.0, 1.0, 1.0), "max_grad_norm": 0.5, "normalize_obs": False,
+            "normalize_advantage": False},
     "network": {"encoder": "gru", "critic": "privileged", "state_sizes": (64, 64), "hist_dim": 32, "heads": 2,
                 "log_std_init": -1.5, "critic_sizes": (64,)},
 }
+
+
+def flag_of(path: str) -> str:
+    """The flag of a field of the tree by its dotted path: ``--task.reward.w-bound``, the schedule's ``--epochs``,
+    the batch's ``--num-envs``."""
+    group, _, rest = path.partition(".")
+    short = group == "schedule" or rest in SHORT_FLAGS.get(type(getattr(RunSpec("m", "o"), group)), ())
+    return "--" + (rest if short else path).replace("_", "-")
 
 
 def _flag(value) -> str:
@@ -157,16 +169,34 @@ def _flag(value) -> str:
     return str(value).lower() if isinstance(value, bool) else str(value)
 
 
+def tree_help(default: RunSpec) -> dict[str, str]:
+    """What ``train --help`` says of each configuration flag under ``default``: flag -> its help, on one line."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        print_tree_help(default, "dragmesh2 train")
+    entries, flag = {}, None
+    for line in out.getvalue().splitlines():
+        text = line.strip(" \u2502\u256d\u256e\u2570\u256f\u2500")
+        if m := re.match(r"(--[a-z][\w.-]*)", text):
+            flag = m.group(1)
+            entries[flag] = text
+        elif flag and text and set(text) - set("-"):
+            entries[flag] += " " + text
+        else:
+            flag = None
+    return entries
+
+
 def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and_scene():
     argv = ["train", "--object", str(default_object()), "--out", "x"]
     for prefix, values in FLAG_VALUES.items():
-        argv += [a for f, v in values.items() for a in (flag_name(prefix, f), _flag(v))]
-    args = build_parser().parse_args(argv)
-    for prefix in CONFIG_CLASSES:
-        assert config_changes(args, prefix) == FLAG_VALUES[prefix], prefix
-    spec = method_spec("pica", args.object, config_changes(args, "ppo"), config_changes(args, "task"),
-                       config_changes(args, "scene"), backend="mujoco", network=config_changes(args, "network"),
-                       schedule=config_changes(args, "schedule"))
+        argv += [a for f, v in values.items() for a in (flag_of(f"{prefix}.{f}"), _flag(v))]
+    args, rest = build_parser().parse_known_args(argv)
+    default = method_defaults("pica")
+    changes = tree_changes(parse_tree(rest, default, "dragmesh2 train"), default)
+    assert changes == FLAG_VALUES
+    spec = method_spec("pica", args.object, changes["ppo"], changes["task"], changes["scene"], backend="mujoco",
+                       network=changes["network"], schedule=changes["schedule"])
     assert RunSpec.from_record(spec.record("mujoco")) == spec  # the record holds every flag
     program = program_of(spec)
     built = {"task": program.task.config, "scene": program.task.scene.config, "ppo": program.config,
@@ -175,10 +205,29 @@ def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and
         for f, v in values.items():
             assert getattr(built[prefix], f) == v, f"{prefix}.{f}"
     assert float(program.task.params.q_done) == pytest.approx(program.task.traj.q_done_at(0.6))  # rho is live
-    # and no flag is left out of this table: the parser offers exactly these
-    offered = {(a.dest.split("__", 1)[0], a.dest.split("__", 1)[1]) for a in
-               train_parser()._actions if "__" in a.dest}
-    assert offered == {(p, f) for p, values in FLAG_VALUES.items() for f in values}
+    # and no flag is left out of this table: tyro offers exactly these, and the nested configs' fields
+    offered = {f for f in tree_help(default) if f.count(".") < 2}
+    nested = {f"--{g}.{f.name}".replace("_", "-") for g in GROUPS for f in dataclasses.fields(getattr(default, g))
+              if dataclasses.is_dataclass(getattr(getattr(default, g), f.name))}
+    assert {f for f in offered if not any(f.startswith(n + ".") for n in nested)} == {
+        flag_of(f"{p}.{f}") for p, values in FLAG_VALUES.items() for f in values}
+    assert not {flag_of(f"{g}.{n}") for cls, names in NOT_FLAGS.items() for n in names
+                for g in GROUPS if isinstance(getattr(default, g), cls)} & set(offered)
+
+
+def test_a_nested_field_is_a_flag_and_a_flag_tyro_refuses_is_one_line(capsys, tmp_path):
+    default = method_defaults("hold_blind_cmdp")
+    spec = parse_tree(["--task.reward.constraints.0.limit", "80", "--scene.hand.friction", "1.2",
+                       "--task.reset-noise.wrist-pos", "0.004"], default, "dragmesh2 train")
+    assert spec.task.reward.constraints[0].limit == 80.0 and spec.scene.hand.friction == 1.2
+    assert spec.task.reset_noise.wrist_pos == 0.004
+    assert dataclasses.replace(spec, task=default.task, scene=default.scene) == default  # nothing else moved
+    for bad in (["--ppo.lr", "fast"], ["--epoch", "3"], ["--task.force-obs", "maybe"], ["--network.state-sizes", "a"],
+                ["--scene.object-pos", "1,2"], ["--task.alpha", "-1"], ["--num-envs"]):
+        assert dragmesh2(["train", "--object", str(default_object()), "--out", str(tmp_path / "x"), *bad]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("error: "), (bad, err)
+    assert not (tmp_path / "x").exists()
 
 
 def train_parser():
@@ -208,8 +257,7 @@ def _subparsers(parser: argparse.ArgumentParser):
 def test_help_shows_every_default():
     """Each option that takes a value and has a default says it in --help, and so do the ones whose default depends
     on the method or the run (the issue's examples)."""
-    named = {"dragmesh2 train": {"--epochs", "--num-envs", "--seed", "--method"},
-             "dragmesh2 evaluate": {"--damping", "--mode", "--episodes"}}
+    named = {"dragmesh2 train": {"--method"}, "dragmesh2 evaluate": {"--damping", "--mode", "--episodes"}}
     for sub in _subparsers(build_parser()):
         formatter = sub._get_formatter()
         for a in sub._actions:
@@ -218,8 +266,10 @@ def test_help_shows_every_default():
             shown = formatter._format_action(a)  # what --help prints for it
             if a.default is not None or set(a.option_strings) & named.get(sub.prog, set()):
                 assert "default" in shown, (sub.prog, a.option_strings)
-    help_text = train_parser().format_help()
-    assert "(default: auto)" in help_text and "TaskConfig's 0.05" in help_text
+    assert "(default: auto)" in train_parser().format_help()
+    flags = tree_help(method_defaults("recommended"))  # the configuration's, under the method given
+    assert "(default: 300)" in flags["--epochs"] and "(default: 0.05)" in flags["--task.alpha"]
+    assert "(default: 64)" in flags["--num-envs"] and "(default: 42)" in flags["--seed"]
 
 
 def test_envelope_prints_the_cells_and_rejects_a_bad_pace(capsys):

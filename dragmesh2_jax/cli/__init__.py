@@ -17,10 +17,14 @@ from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
 
 def main(argv: list[str] | None = None) -> int:
     """``dragmesh2`` with ``argv`` (default: the command line's); returns the exit status."""
-    try:
-        args = build_parser().parse_args(argv)
+    parser = build_parser()
+    try:  # a command that takes a run's configuration tree parses those flags itself (flags.parse_tree)
+        args, rest = parser.parse_known_args(argv)
+        if rest and not getattr(args, "tree", False):
+            parser.error(f"unrecognized arguments: {' '.join(rest)}")
     except SystemExit as e:  # --help (0) or a usage error (2, already reported)
         return int(e.code or 0)
+    args.rest = rest
     if "mjx" in str(getattr(args, "backend", "")):  # before anything starts JAX (jaxlib < 0.11 CPU deadlock)
         avoid_lapack_deadlock()
     try:

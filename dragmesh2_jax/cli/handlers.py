@@ -18,7 +18,7 @@ from dragmesh2_jax.bench import (
     learning_curves,
     learning_regressions,
 )
-from dragmesh2_jax.cli.flags import config_changes, flag_value, parse_dampings
+from dragmesh2_jax.cli.flags import flag_value, parse_dampings, parse_tree, print_tree_help, tree_changes
 from dragmesh2_jax.demo import run_demo
 from dragmesh2_jax.errors import DragMeshError, NotSaved
 from dragmesh2_jax.evaluation.evaluate import envelope_figure, envelope_table, markdown_table
@@ -36,12 +36,15 @@ from dragmesh2_jax.runs.commands import (
     object_envelope,
     parse_floats,
     run_dampings,
+    train_defaults,
     train_run,
     video_of_run,
     view_run,
 )
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.trajectory.dataset import build_dataset
+
+TRAIN_PROG = "dragmesh2 train"
 
 
 def _modes(text: str) -> list[str]:
@@ -218,6 +221,14 @@ def cmd_train(args) -> int:
         if any(s != int(s) for s in seeds) or len(set(seeds)) < len(seeds):
             raise DragMeshError(f"--seeds: distinct whole numbers expected, got {args.seeds!r}")
         seeds = [int(s) for s in seeds]
+    default = train_defaults(args.out, args.method, args.resume, seeds)
+    if args.help:
+        print(args.usage())
+        print_tree_help(default, TRAIN_PROG)
+        return 0
+    if not args.out:
+        raise DragMeshError(f"{TRAIN_PROG}: --out is required (the run folder)")
+    changes = tree_changes(parse_tree(args.rest, default, TRAIN_PROG), default)
     objects, trajectory = args.object, args.trajectory
     if args.objects or args.dataset:
         if args.object:
@@ -228,10 +239,8 @@ def cmd_train(args) -> int:
             objects, trajectory = objects + more, trajectory + trajs
     program, logs = train_run(
         args.out, objects, trajectory, args.method, args.backend, args.impl, seeds, args.resume, holdout=args.holdout,
-        task_changes=config_changes(args, "task"), scene_changes=config_changes(args, "scene"),
-        network_changes=config_changes(args, "network"), schedule_changes=config_changes(args, "schedule"),
-        progress=not args.quiet, wandb=args.wandb, num_envs=args.num_envs, lr_schedule=args.lr_schedule,
-        **config_changes(args, "ppo"))
+        task_changes=changes["task"], scene_changes=changes["scene"], network_changes=changes["network"],
+        schedule_changes=changes["schedule"], progress=not args.quiet, wandb=args.wandb, **changes["ppo"])
     for seed, rows in logs:
         last = rows[-1] if rows else {}
         print(f"{args.out}: {program.name} seed {seed} on {program.task.object_id} "

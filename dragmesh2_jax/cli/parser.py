@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from dragmesh2_jax.bench import LEARNING_EPOCHS, LEARNING_METHOD, LEARNING_SEEDS
-from dragmesh2_jax.cli.flags import NONNEGATIVE, POSITIVE, add_config_args, flag_value, one_damping
+from dragmesh2_jax.cli.flags import NONNEGATIVE, POSITIVE, flag_value, one_damping
 from dragmesh2_jax.cli.handlers import (
     cmd_bench,
     cmd_bench_learning,
@@ -57,6 +57,7 @@ class _Parser(argparse.ArgumentParser):
 
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("formatter_class", _Help)
+        kwargs.setdefault("allow_abbrev", False)  # --seed is the schedule's, not short for train's --seeds
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):
@@ -168,7 +169,10 @@ def build_parser() -> argparse.ArgumentParser:
     pbl.add_argument("--backend", default="mujoco", help="mjx | mujoco | auto")
     pbl.set_defaults(func=cmd_bench_learning)
 
-    ptr = sub.add_parser("train", help="train a policy with PPO")
+    ptr = sub.add_parser("train", help="train a policy with PPO", add_help=False,
+                         description="the run's configuration flags follow the command's own, each with its default "
+                                     "under --method (a resumed run: its recorded value)")
+    ptr.add_argument("-h", "--help", action="store_true", help="show this help message and exit")
     ptr.add_argument("--method", help=f"default: {DEFAULT_METHOD} (a resumed run: its own) | recommended | "
                                       + " | ".join(METHODS))
     ptr.add_argument("--object", help="object folder")
@@ -179,19 +183,15 @@ def build_parser() -> argparse.ArgumentParser:
                      help="of several objects, the last this many are held aside: best_robust is chosen on them "
                           "(default: 0)")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
-    ptr.add_argument("--out", required=True, help="run folder")
-    ptr.add_argument("--num-envs", type=POSITIVE, help=f"parallel worlds (default: {PPOConfig.num_envs})")
+    ptr.add_argument("--out", help="run folder (required)")
     ptr.add_argument("--seeds", help="several seeds as one program (e.g. 0,1,2), each in OUT/seed_N; sharded over "
                                      "the devices when they divide the count")
-    ptr.add_argument("--lr-schedule", choices=["fixed", "adaptive"], help=f"default: {PPOConfig.lr_schedule}")
     ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
     ptr.add_argument("--quiet", action="store_true")
     ptr.add_argument("--wandb", metavar="PROJECT", help="also log the scalars to this Weights & Biases project (the "
                                                          "wandb extra; WANDB_MODE=offline keeps them local)")
     _add_backend_args(ptr)
-    # the engine and the batch's flags stand above; the effector is the parallel-jaw primitive's, not a policy's
-    add_config_args(ptr, skip=("task.backend", "task.impl", "ppo.num_envs", "ppo.lr_schedule", "scene.effector"))
-    ptr.set_defaults(func=cmd_train)
+    ptr.set_defaults(func=cmd_train, tree=True, usage=ptr.format_help)
 
     pft = sub.add_parser("finetune", help="continue a trained run with a diagnostic preset (ARAM, Reconfig, ...)")
     pft.add_argument("--checkpoint", required=True,

@@ -25,7 +25,7 @@ from dragmesh2_jax.render import render_policy_video, render_pose, render_trajec
 from dragmesh2_jax.runs.build import load_task, program_of
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import RESCHEDULABLE, start_or_resume
-from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_spec
+from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, method_spec
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import contact_budget, reset_starts
@@ -91,6 +91,15 @@ def make_trajectory(object_dir: str, out: str, render: str | None = None, render
 
 
 DEFAULT_METHOD = "pica"  # what ``train`` trains when no --method is given
+
+
+def train_defaults(out: str | None, method: str | None, resume: bool, seeds: list[int] | None) -> RunSpec:
+    """The tree a ``train`` command's flags change: the recorded run's when it resumes one, else the method's."""
+    if resume and out:
+        run = RunDir(Path(out) / f"seed_{seeds[0]}") if seeds else RunDir(out)
+        if run.exists():
+            return run.spec()
+    return method_defaults(method or DEFAULT_METHOD)
 
 
 def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str | None = None,
