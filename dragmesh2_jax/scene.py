@@ -70,9 +70,9 @@ class SceneConfig:
     friction: float = 1.5  # object sliding friction
     collide: str = "target"  # "target" | "all"
     collision_radius: float = 0.2  # m (world): target-part pieces this near the handle's surface collide
-    gravity: bool = True
-    solver_iterations: int = 4
-    ls_iterations: int = 8
+    gravity: bool = True  # gravity on (off: a part moves only by contact and its damping)
+    solver_iterations: int = 4  # MuJoCo's constraint solver iterations
+    ls_iterations: int = 8  # MuJoCo's line-search iterations per solver iteration
     effector: str = "hand"  # "hand" (the 51-DoF hand) | "parallel_jaw" (the primitive's gripper)
     hand: hand_lib.HandConfig = field(default_factory=hand_lib.HandConfig)
     gripper: gripper_lib.GripperConfig = field(default_factory=gripper_lib.GripperConfig)

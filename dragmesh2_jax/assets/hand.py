@@ -101,10 +101,10 @@ class DriveGains:
     target step in well under one 1/60 s control period. ``tests/assets/test_hand.py`` checks stability.
     """
 
-    kp: float
-    kv: float
-    force_limit: float
-    armature: float
+    kp: float  # stiffness
+    kv: float  # damping
+    force_limit: float  # |force| limit
+    armature: float  # joint armature
 
 
 @dataclass(frozen=True)
@@ -116,7 +116,7 @@ class HandConfig:
     wrist: DriveGains = DriveGains(kp=100.0, kv=2.5, force_limit=50.0, armature=0.01)
     finger: DriveGains = DriveGains(kp=30.0, kv=0.5, force_limit=1.0, armature=0.002)
     virtual_range: tuple[tuple[float, float], ...] = ((-2.0, 2.0), (-2.0, 2.0), (0.0, 2.0))  # m (design §1)
-    wrist_range_deg: tuple[float, float] = (-180.0, 180.0)
+    wrist_range_deg: tuple[float, float] = (-180.0, 180.0)  # the three wrist hinges' range, degrees
     friction: float = 1.5  # sliding friction of hand geoms
     # Contact and finger joint-limit stiffness: solref time constant (s). MuJoCo's default 0.02 lets the light,
     # armature-dominated phalanges sink ~2 cm into a handle (or 0.1 rad past a limit) under full drive;

@@ -112,13 +112,13 @@ class RewardConfig:
     w_task: float = 250.0  # per m or rad of target-joint progress
     w_dist: float = 0.25  # linear palm-handle distance penalty (per m)
     w_near: float = 0.10  # near-distance bonus, w_near exp(-kappa d)
-    kappa: float = 5.0
+    kappa: float = 5.0  # 1/m, the near bonus's decay
     w_act: float = 0.002  # action energy, mean(a^2)
     w_time: float = 0.05  # per step
     r_detach: float = -50.0  # one-shot, on detachment failure
     r_success: float = 100.0  # one-shot, on reaching q_done
     w_bound: float = 20.0  # PICA: mean(max(|a| - a_sat, 0)^2)
-    a_sat: float = 0.90
+    a_sat: float = 0.90  # PICA: |a| above this pays the bound penalty
     w_contact: float = 0.5  # PICA: max(d - d_safe, 0)^2
     d_safe: float = 0.08  # m
     # Beyond the paper: a load budget. Scripted pulls (RESULTS.md, failure analysis) show the grip fails once the
@@ -160,7 +160,7 @@ class ResetNoise:
     fingers: float = 0.05  # rad, std per active finger joint (the 24 locked axes stay)
     object_q: float = 0.05  # the object starts up to this fraction of (q_done - q_start) open, uniform
     bank: int = 32  # perturbed starts
-    seed: int = 0
+    seed: int = 0  # seed of the perturbed starts' bank
 
     def __post_init__(self):
         if min(self.wrist_pos, self.wrist_rot, self.fingers, self.object_q) < 0 or self.object_q >= 1:
