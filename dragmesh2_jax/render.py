@@ -329,12 +329,12 @@ def outcome(row: dict) -> str:
 
 def render_policy_video(task, controller: Controller, dampings: list[float], path: str | Path,
                         every: int = VIDEO_EVERY, width: int = 480, height: int = 360, seed: int = 0,
-                        renderer: str = "auto") -> tuple[str, str]:
+                        renderer: str = "auto", still: str | Path | None = None) -> tuple[str, str]:
     """Rollouts of ``controller`` (deterministic) at each damping side by side, one panel per damping, a frame every
     ``every`` control steps played in real time, each panel overlaid with its damping, step, progress to q_done and
     wrist load, and its outcome once its episode ends (it then holds its last frame: the state before its last
-    step). MP4 where ``mediapy`` and ffmpeg are available, else GIF (``.mp4`` falls back to ``.gif``). Returns the
-    path written and the renderer used."""
+    step). MP4 where ``mediapy`` and ffmpeg are available, else GIF (``.mp4`` falls back to ``.gif``); ``still``:
+    its last frame as a PNG too. Returns the path written and the renderer used."""
     if every < 1:
         raise DragMeshError(f"video frames every {every} control steps: must be >= 1")
     result = rollouts.rollout(task, controller.make_policy(True), controller.params, dampings, 1, seed,
@@ -364,4 +364,6 @@ def render_policy_video(task, controller: Controller, dampings: list[float], pat
                 frame.paste(panel, (j * width, 0))
             frames.append(frame)
         used = painter.used
+    if still is not None:
+        atomic_write_bytes(still, _png(frames[-1]))
     return write_video(frames, path, 1.0 / (every * task.config.control_dt)), used

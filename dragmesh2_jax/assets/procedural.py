@@ -425,6 +425,34 @@ def synthesize_table1(n: int, seed: int, out: str | Path) -> list[Path]:
     return [p for c, k in table1_mix(n).items() for p in synthesize(c, k, seed, out)]
 
 
+#: The generalist's procedural mix (issue 36): every category, doors as many as drawers (the real benchmark's parts
+#: are doors as often as drawers), objects per category; the last of each category is held aside to select the
+#: generalist's checkpoint on (``held_aside_by_category``), the others are trained on.
+GENERALIST_MIX = {"drawer_cabinet": 10, "door_cabinet": 10, "microwave": 5, "refrigerator": 5, "dishwasher": 4,
+                  "oven": 4, "trash_can": 3, "table": 3, "door": 3, "double_knob_door": 3}
+#: The generalist's objects start at this seed (the packaged objects use seeds 0 and 213, reproduce's from 1000).
+GENERALIST_SEED = 2000
+
+
+def synthesize_mix(mix: dict[str, int], seed: int, out: str | Path) -> list[Path]:
+    """``synthesize`` for each category of ``mix`` with its count (resumable)."""
+    return [p for c, k in mix.items() for p in synthesize(c, k, seed, out)]
+
+
+def category_of(folder: str | Path) -> str:
+    """A procedural object's category, from its folder name (``door_cabinet_2003``)."""
+    return Path(folder).name.rsplit("_", 1)[0]
+
+
+def held_aside_by_category(objects: list, trajectories: list) -> tuple[list, list, int]:
+    """``objects`` (procedural folders) and their trajectories reordered so that the last of each category comes
+    last: (objects, trajectories, how many are held aside), a run's ``holdout`` drawn across every category."""
+    last = {category_of(o): i for i, o in enumerate(objects)}
+    held = sorted(last.values())
+    order = [i for i in range(len(objects)) if i not in set(held)] + held
+    return [objects[i] for i in order], [trajectories[i] for i in order], len(held)
+
+
 def synthesize_categories(category: str, count: int, seed: int, out: str | Path) -> list[Path]:
     """``synthesize`` for one category, or for every category with ``category="all"``."""
     cats = list(CATEGORIES) if category == "all" else [category]

@@ -41,6 +41,7 @@ from dragmesh2_jax.runs.commands import (
     video_of_run,
     view_run,
 )
+from dragmesh2_jax.runs.generalist import GENERALIST, generalist_run, open_object
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.trajectory.dataset import build_dataset
 
@@ -221,7 +222,14 @@ def cmd_train(args) -> int:
         if any(s != int(s) for s in seeds) or len(set(seeds)) < len(seeds):
             raise DragMeshError(f"--seeds: distinct whole numbers expected, got {args.seeds!r}")
         seeds = [int(s) for s in seeds]
-    default = train_defaults(args.out, args.method, args.resume, seeds)
+    if args.generalist:
+        given = [f for f, v in (("--method", args.method), ("--object", args.object), ("--objects", args.objects),
+                                ("--dataset", args.dataset), ("--trajectory", args.trajectory),
+                                ("--holdout", args.holdout)) if v is not None]
+        if given:
+            raise DragMeshError(f"--generalist trains its own method over its own objects: drop {', '.join(given)}")
+    method = GENERALIST if args.generalist else args.method
+    default = train_defaults(args.out, method, args.resume, seeds)
     if args.help:
         print(args.usage())
         print_tree_help(default, TRAIN_PROG)
@@ -229,6 +237,11 @@ def cmd_train(args) -> int:
     if not args.out:
         raise DragMeshError(f"{TRAIN_PROG}: --out is required (the run folder)")
     changes = tree_changes(parse_tree(args.rest, default, TRAIN_PROG), default)
+    if args.generalist:
+        program, logs = generalist_run(args.out, seeds, args.resume, args.backend, args.impl, changes,
+                                       progress=not args.quiet, wandb=args.wandb)
+        _print_trained(args.out, program, logs)
+        return 0
     objects, trajectory = args.object, args.trajectory
     if args.objects or args.dataset:
         if args.object:
@@ -241,11 +254,25 @@ def cmd_train(args) -> int:
         args.out, objects, trajectory, args.method, args.backend, args.impl, seeds, args.resume, holdout=args.holdout,
         task_changes=changes["task"], scene_changes=changes["scene"], network_changes=changes["network"],
         schedule_changes=changes["schedule"], progress=not args.quiet, wandb=args.wandb, **changes["ppo"])
+    _print_trained(args.out, program, logs)
+    return 0
+
+
+def _print_trained(out: str, program, logs) -> None:
     for seed, rows in logs:
         last = rows[-1] if rows else {}
-        print(f"{args.out}: {program.name} seed {seed} on {program.task.object_id} "
+        print(f"{out}: {program.name} seed {seed} on {program.task.object_id} "
               f"({program.task.engine}), {last.get('epoch', 0)} epochs, training success "
               f"{last.get('success', 0):.2f}, reward {last.get('reward', 0):.2f}, {last.get('seconds', 0):.0f} s")
+
+
+def cmd_open(args) -> int:
+    out = args.out or f"open_{Path(args.object).name}"
+    r = open_object(args.object, args.damping, out, args.checkpoint, args.episodes, _engine(args.backend),
+                    args.renderer, args.every)
+    print(f"{Path(args.object).name} at x{r['damping']:g}: opened {r['successes']}/{r['episodes']}, "
+          f"{r['steps_mean']:.0f} steps, wrist load p95 {r['wrist_load_peak_n']:.0f} N")
+    _err(f"report: {Path(out) / 'report.md'}  video: {r['video']}  still: {r['still']}")
     return 0
 
 
@@ -288,7 +315,7 @@ def cmd_evaluate(args) -> int:
         except NotSaved as e:  # computed, not saved: printed whole, then the one error line
             print(json.dumps(e.result, indent=1) if args.json else markdown_table(e.result))
             raise
-        _err(f"evaluation: {path}")
+        _err(f"evaluation: {path or 'not written (a packaged run is read, never written)'}")
     else:
         result = evaluate_baseline(args.method, args.object, args.trajectory, protocol, args.backend, args.impl)
     print(json.dumps(result, indent=1) if args.json else markdown_table(result))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from dragmesh2_jax.assets.procedural import GENERALIST_MIX
 from dragmesh2_jax.bench import LEARNING_EPOCHS, LEARNING_METHOD, LEARNING_SEEDS
 from dragmesh2_jax.cli.flags import NONNEGATIVE, POSITIVE, flag_value, one_damping
 from dragmesh2_jax.cli.handlers import (
@@ -19,6 +20,7 @@ from dragmesh2_jax.cli.handlers import (
     cmd_finetune,
     cmd_inspect,
     cmd_objects,
+    cmd_open,
     cmd_reproduce,
     cmd_train,
     cmd_trajectory,
@@ -33,6 +35,7 @@ from dragmesh2_jax.ppo.finetune import FINETUNES
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
 from dragmesh2_jax.reproduce import CHECKPOINTS, GENERALIST_HOLDOUT, GENERALIST_OBJECTS, SCALING_OBJECTS, TABLES
 from dragmesh2_jax.runs.commands import DEFAULT_METHOD
+from dragmesh2_jax.runs.generalist import OPEN_EPISODES
 from dragmesh2_jax.runs.spec import ROBUST_EVERY, SAVE_EVERY
 
 
@@ -175,6 +178,10 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("-h", "--help", action="store_true", help="show this help message and exit")
     ptr.add_argument("--method", help=f"default: {DEFAULT_METHOD} (a resumed run: its own) | recommended | "
                                       + " | ".join(METHODS))
+    ptr.add_argument("--generalist", action="store_true",
+                     help="the project's generalist: the generalist method over procedural objects of every "
+                          f"category ({sum(GENERALIST_MIX.values())}, built into OUT/objects; one per category held "
+                          "aside for its robustness checks), 10 M env steps; no --object/--objects/--dataset/--method")
     ptr.add_argument("--object", help="object folder")
     ptr.add_argument("--objects", nargs="+", metavar="FOLDER", help="several object folders: one policy over all of "
                                                                     "them (each world draws one at every reset)")
@@ -293,6 +300,19 @@ def build_parser() -> argparse.ArgumentParser:
                                                             f"recipe, {RECOMMENDED})")
     _add_renderer_arg(pd)
     pd.set_defaults(func=cmd_demo)
+
+    pop = sub.add_parser("open", help="the packaged generalist on any object folder, no training: the trajectory, "
+                                      "deterministic episodes, a report (success, steps, wrist load), a video")
+    pop.add_argument("--object", required=True, help="object folder (GAPartNet format)")
+    pop.add_argument("--damping", type=one_damping, default=1.0, help="damping multiplier of the part's joint (> 0)")
+    pop.add_argument("--out", help="folder of the report, video, still and trajectory (default: open_OBJECT)")
+    pop.add_argument("--checkpoint", default="generalist", help="the policy: the packaged generalist, or a run "
+                                                                "folder or checkpoint")
+    pop.add_argument("--episodes", type=POSITIVE, default=OPEN_EPISODES, help="deterministic episodes")
+    pop.add_argument("--every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between video frames")
+    _add_renderer_arg(pop)
+    pop.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
+    pop.set_defaults(func=cmd_open)
 
     pv = sub.add_parser("video", help="a trained policy's rollouts at several dampings, side by side")
     pv.add_argument("--checkpoint", required=True,

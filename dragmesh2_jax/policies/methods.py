@@ -32,6 +32,9 @@ from dragmesh2_jax.task.config import Constraint, ResetNoise
 #: The recipe's evaluation cells: its training range x1-x8 and x16 beyond it (out of its training distribution).
 RECIPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
 RECIPE_EPOCHS = 300  # twice the paper's budget: where it holds the validation doors at x1-x4 (RESULTS.md §3)
+#: The generalist's budget: 10 M env steps at the default batch of 64 worlds x 32 steps (issue 36).
+GENERALIST_ENV_STEPS = 10_000_000
+GENERALIST_EPOCHS = 4883
 
 #: The paper's baselines and ablation "w/o PICA": no r_bound / r_contact, nominal damping, no auxiliary loss.
 NO_PHYSICAL_SIGNALS: dict[str, Any] = {"task.reward.w_bound": 0.0, "task.reward.w_contact": 0.0,
@@ -91,6 +94,11 @@ METHODS = {m.name: m for m in (
            "the handle's frame, the part's state in task units, nothing that identifies the object), for policies "
            "over many objects (issue 36)",
            {**HOLD_BLIND, "task.observation": "handle"}),
+    Method("generalist", "the project's generalist recipe: hold_blind_handle over many objects for 10 M env steps (at "
+           "the default batch), checked on the held-aside objects every 100 epochs, read at its final checkpoint "
+           "(train --generalist: over the procedural mix of every category)",
+           {**HOLD_BLIND, "task.observation": "handle", "schedule.epochs": GENERALIST_EPOCHS,
+            "schedule.save_every": 100, "schedule.robust_every": 100}),
     Method("hold_blind_cmdp", "PICA-Hold without force or touch sensing and with the wrist load as a CMDP constraint "
            "(the load is seen by the critic and the cost, never by the policy)",
            {**HOLD, "task.reward.constraints": (Constraint(),)}),

@@ -6,7 +6,12 @@ restores both and evaluation or a fine-tune can restore the learner alone, even 
 another layout. It is written to a temporary sibling and renamed into place (a crash never leaves half a checkpoint,
 and ``best``/``best_robust`` are replaced whole). A checkpoint that does not match the program (another method, config
 or version), or a damaged one, is one clear error, not a crash. Where checkpoints live in a run folder is
-``runs/rundir.py``'s business."""
+``runs/rundir.py``'s business.
+
+An exported actor (``*.msgpack``, :func:`save_actor`) is what a policy reads and nothing else: the network's actor
+parameters and the observation normalisers, a few MB where a checkpoint holds the critic, the optimiser and the
+worlds too. It loads into a fresh state (critic and optimiser new): for evaluation, or a fine-tune that trains a
+critic again."""
 
 from __future__ import annotations
 
@@ -18,8 +23,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import orbax.checkpoint as ocp
+from flax import serialization
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.io import atomic_write_bytes
 from dragmesh2_jax.ppo.train import TrainState
 
 
@@ -85,8 +92,44 @@ def _sized_leaves(env_state) -> dict:
     return {_key(i): x for i, x in enumerate(jax.tree.leaves(env_state)) if x.size}
 
 
+#: The network's modules a policy reads (``ActorCritic.actor``): the state MLP, the temporal encoder, the mean head
+#: and the log std; and the normalisers of what it observes.
+ACTOR_MODULES = ("state_mlp", "temporal", "mu", "log_std")
+ACTOR_SUFFIX = ".msgpack"
+
+
+def _actor(ts: TrainState) -> dict:
+    net = ts.params["params"]
+    return {"params": {k: net[k] for k in ACTOR_MODULES if k in net}, "state_stats": ts.state_stats,
+            "token_stats": ts.token_stats, "epoch": ts.epoch}
+
+
+def save_actor(ts: TrainState, path: str | Path) -> Path:
+    """Write the policy of ``ts`` (one run's state) as an exported actor at ``path`` (``*.msgpack``)."""
+    return atomic_write_bytes(path, serialization.msgpack_serialize(serialization.to_state_dict(
+        jax.device_get(_actor(ts)))))
+
+
+def load_actor(template: TrainState, path: str | Path) -> TrainState:
+    """``template`` with the policy of the exported actor at ``path``; one that another network wrote is one error
+    line."""
+    try:
+        stored = serialization.msgpack_restore(Path(path).read_bytes())
+        actor = serialization.from_state_dict(_actor(template), stored)
+        for want, got in zip(jax.tree.leaves(_actor(template)), jax.tree.leaves(actor), strict=True):
+            if np.shape(want) != np.shape(got):
+                raise ValueError(f"a parameter of shape {np.shape(got)} where the network has {np.shape(want)}")
+    except (ValueError, KeyError, TypeError) as e:
+        raise DragMeshError(f"{path}: the exported actor does not match this method/config ({e})") from None
+    params = {**template.params, "params": {**template.params["params"], **actor["params"]}}
+    return _uncommitted(template.replace(params=params, state_stats=actor["state_stats"],
+                                         token_stats=actor["token_stats"], epoch=actor["epoch"]))
+
+
 def is_checkpoint(path: str | Path) -> bool:
-    return (Path(path) / "learner").is_dir()
+    """A checkpoint directory, or an exported actor."""
+    path = Path(path)
+    return (path / "learner").is_dir() or (path.suffix == ACTOR_SUFFIX and path.is_file())
 
 
 def load_checkpoint(template: TrainState, path: str | Path, keep_env: bool = False) -> TrainState:
@@ -96,6 +139,8 @@ def load_checkpoint(template: TrainState, path: str | Path, keep_env: bool = Fal
     path = Path(path)
     if not is_checkpoint(path):
         raise DragMeshError(f"{path}: no such checkpoint")
+    if path.suffix == ACTOR_SUFFIX:
+        return load_actor(template, path)
     ck = ocp.StandardCheckpointer()
     try:
         ts = _restore_learner(ck, (path / "learner").absolute(), template.replace(env_state=None))

@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.baselines import tracking
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
 from dragmesh2_jax.errors import DragMeshError, NotSaved, NotWritable
@@ -187,6 +188,8 @@ def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "ja
     fine-tune onto a new object builds one scene, not every training object's."""
     run, ck = RunDir.of_checkpoint(checkpoint)
     spec, trajectories = run.spec(), None
+    if run.packaged and not object_dir:  # it ships without its training objects: on the built-in default object
+        object_dir = str(default_object())
     if object_dir:
         spec, trajectories, keep_env = on_object(spec, object_dir), [trajectory], True
     trained_on = run.backend
@@ -221,11 +224,13 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
     if more < 1:
         raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")
     parent, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
+    if run.packaged and not object_dir:  # as load_run: onto the built-in default object
+        object_dir = str(default_object())
     spec = finetune_spec(run.spec().on(parent.task.engine, impl), recipe, str(ck.resolve()),
                          int(ts.epoch) + more, schedule)
-    trajectories = run.trajectories()
+    trajectories = [trajectory] if object_dir else run.trajectories()
     if object_dir:
-        spec, trajectories = on_object(spec, object_dir), [trajectory]
+        spec = on_object(spec, object_dir)
     program = program_of(spec, trajectories)
     start = load_checkpoint(init_jit(program, program.data(), seed_keys([spec.schedule.seed])[0]), ck,
                             keep_env=True)
@@ -245,17 +250,21 @@ def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend
     run, _ = RunDir.of_checkpoint(checkpoint)
     with contextlib.ExitStack() as lock:
         with contextlib.suppress(NotWritable):  # read-only: evaluated all the same, the result raised whole
-            lock.enter_context(run.writing())
+            if not run.packaged:
+                lock.enter_context(run.writing())
         program, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
         return evaluate_loaded(program, ts, run, ck, protocol, Path(object_dir).name if object_dir else None)
 
 
 def evaluate_loaded(program: TrainProgram, ts: TrainState, run: RunDir, ck: Path, protocol: EvalProtocol = PAPER,
-                    on: str | None = None) -> tuple[dict, Path]:
+                    on: str | None = None) -> tuple[dict, Path | None]:
     """:func:`evaluate_checkpoint` of a run already loaded (``load_run``); ``on``: the object of a zero-shot
-    evaluation. A result that cannot be written is raised whole (:class:`NotSaved`), never lost."""
+    evaluation. A result that cannot be written is raised whole (:class:`NotSaved`), never lost; a packaged run's
+    is returned unwritten (None: the package is not a place to write)."""
     result = evaluate(protocol.task(program.task), program.controller(ts), protocol)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs(), zero_shot=on is not None)
+    if run.packaged:
+        return result, None
     try:
         return result, run.write_evaluation(ck, protocol, result, markdown_table(result), on=on)
     except OSError as e:

@@ -7,6 +7,7 @@
     tb/                      the same scalars as TensorBoard event files
     checkpoints/NAME         Orbax checkpoints (``ppo/checkpoint.py``): ``epoch_NNNN``, ``best`` (training
                              reward), ``best_robust``, ``final``
+    actor.msgpack            the policy exported alone (``ppo/checkpoint.save_actor``): what a packaged run ships
     evaluations/CK__PROTOCOL.json, .md   an evaluation of checkpoint CK under a protocol (``EvalProtocol.name``):
                              one never overwrites another's
 
@@ -14,6 +15,9 @@
                              finetune, evaluate, reproduce, the demo): one writer at a time
 
 Tables are rewritten whole and atomically at every row (a crash leaves the previous version).
+
+A packaged run (``PACKAGED``: the generalist that ships with the package) is such a folder with its record and its
+exported actor only, read where a checkpoint is taken by its name (``--checkpoint generalist``), never written.
 """
 
 from __future__ import annotations
@@ -30,13 +34,16 @@ from pathlib import Path
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import LOCK_NAME, atomic_write_json, atomic_write_text, folder_lock
-from dragmesh2_jax.ppo.checkpoint import is_checkpoint
+from dragmesh2_jax.ppo.checkpoint import ACTOR_SUFFIX, is_checkpoint
 from dragmesh2_jax.runs.spec import RECORD_FORMAT, RunSpec, Schedule
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory, write_trajectory
 
 #: Checkpoints a run offers as its policy, in the order they are preferred.
 CHECKPOINT_PREFERENCE = ("best_robust", "final")
 EPOCH_PREFIX = "epoch_"
+ACTOR_NAME = "actor" + ACTOR_SUFFIX
+#: Runs that ship with the package, by the name a checkpoint flag takes.
+PACKAGED = {"generalist": Path(__file__).resolve().parent.parent / "data" / "generalist"}
 
 
 def epoch_name(epoch: int) -> str:
@@ -155,9 +162,21 @@ class RunDir:
                 out[int(tail)] = p
         return out
 
+    @property
+    def actor_path(self) -> Path:
+        return self.path / ACTOR_NAME
+
+    @property
+    def packaged(self) -> bool:
+        """A run that ships with the package: read, never written."""
+        return self.path.resolve() in {p.resolve() for p in PACKAGED.values()}
+
     def policy_checkpoint(self) -> Path:
         """The checkpoint that stands for the run's policy, by its method's rule (``spec.schedule.checkpoint``):
-        ``best_robust`` (else ``final``, for a run that had no robustness check), or ``final``."""
+        ``best_robust`` (else ``final``, for a run that had no robustness check), or ``final``; a packaged run's
+        exported actor."""
+        if self.packaged:
+            return self.actor_path
         rule = self.spec().schedule.checkpoint
         for name in (CHECKPOINT_PREFERENCE if rule == "best_robust" else (rule,)):
             if self.has_checkpoint(name):
@@ -175,13 +194,18 @@ class RunDir:
     @staticmethod
     def of_checkpoint(path: str | Path) -> tuple[RunDir, Path]:
         """(the run, the checkpoint) of a checkpoint path, or of a run folder (its policy checkpoint)."""
-        p = Path(path)
+        p = PACKAGED.get(str(path), Path(path))
+        if str(path) in PACKAGED and not (p / ACTOR_NAME).is_file():
+            raise DragMeshError(f"{p}: the packaged {path} is missing (reinstall dragmesh2-jax)")
         if (p / "run.json").is_file():
             run = RunDir(p)
             return run, run.policy_checkpoint()
         if is_checkpoint(p) and (p.parent.parent / "run.json").is_file():
             return RunDir(p.parent.parent), p
-        raise DragMeshError(f"{p}: no such checkpoint (a run folder or one of its checkpoints/*)")
+        if p.name == ACTOR_NAME and p.is_file() and (p.parent / "run.json").is_file():
+            return RunDir(p.parent), p
+        raise DragMeshError(f"{p}: no such checkpoint (a run folder, one of its checkpoints/*, or "
+                            f"{' | '.join(PACKAGED)}: the packaged one)")
 
     # -------------------------------------------------------------------------------------- tables
     def log_rows(self, max_epoch: int | None = None) -> list[dict]:

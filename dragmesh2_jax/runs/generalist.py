@@ -1,0 +1,107 @@
+"""The generalist (issue 36): one policy over procedural objects of every category. Its training run
+(``train --generalist``: the ``generalist`` method over ``GENERALIST_MIX``, built into the run's own folder and held
+aside one object per category for its robustness checks), and ``open``: the packaged generalist on any object
+folder, no training (the trajectory built, deterministic episodes, a short report, a video and a still)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from dragmesh2_jax.assets import procedural
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.protocol import EvalProtocol
+from dragmesh2_jax.io import atomic_write_json, atomic_write_text
+from dragmesh2_jax.ppo.checkpoint import save_actor
+from dragmesh2_jax.ppo.train import TrainProgram
+from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
+from dragmesh2_jax.runs.commands import dataset_objects, evaluate_loaded, load_run, train_run
+from dragmesh2_jax.runs.rundir import ACTOR_NAME, RunDir
+from dragmesh2_jax.trajectory.dataset import build_dataset
+from dragmesh2_jax.trajectory.schema import write_trajectory
+
+GENERALIST = "generalist"  # its method, and the packaged run's name (runs/rundir.PACKAGED)
+#: Where ``train --generalist`` builds its objects and their trajectories, inside OUT (a dataset folder).
+DATASET = "objects"
+OPEN_EPISODES = 10  # deterministic episodes of ``open``, each from its own perturbed start
+
+
+def generalist_objects(out: str | Path, progress: bool = True) -> tuple[list[str], list[str], int]:
+    """The generalist's objects: ``procedural.GENERALIST_MIX`` built under ``out/objects`` with their trajectories
+    (resumable), those whose trajectory passed its gate, the last of each category last: (objects, trajectories,
+    how many are held aside)."""
+    folder = Path(out) / DATASET
+    objects = procedural.synthesize_mix(procedural.GENERALIST_MIX, procedural.GENERALIST_SEED, folder / "objects")
+    build_dataset(objects, folder, progress=progress)
+    return procedural.held_aside_by_category(*dataset_objects(folder))
+
+
+def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str, impl: str, changes: dict,
+                   progress: bool = True, wandb: str | None = None) -> tuple[TrainProgram, list]:
+    """``train --generalist``: the ``generalist`` method over its objects (``generalist_objects``), new or resumed;
+    ``changes``: each group's fields the command's flags changed (``cli.flags.tree_changes``)."""
+    objects, trajectories, holdout = generalist_objects(out, progress)
+    return train_run(out, objects, None if resume else trajectories, GENERALIST, backend, impl, seeds, resume,
+                     task_changes=changes["task"], scene_changes=changes["scene"], network_changes=changes["network"],
+                     schedule_changes=changes["schedule"], progress=progress, wandb=wandb, holdout=holdout,
+                     **changes["ppo"])
+
+
+def package_run(checkpoint: str, dest: str | Path, command: str) -> Path:
+    """A trained run's policy as a packaged run in ``dest`` (``runs/rundir.PACKAGED``): its record (its objects by
+    name: they do not ship), its exported actor, and a README with the command that trained it and how far it
+    got. Returns ``dest``."""
+    run, ck = RunDir.of_checkpoint(checkpoint)
+    _, ts, run, ck = load_run(checkpoint, object_dir=str(procedural.default_object()))  # one scene, not every object
+    dest = Path(dest)
+    save_actor(ts, dest / ACTOR_NAME)
+    record = run.record()
+    atomic_write_json(dest / "run.json", {**record, "object": Path(record["object"]).name, "objects": [
+        {**o, "folder": Path(o["folder"]).name} for o in record.get("objects") or []]})
+    last = (run.log_rows() or [{}])[-1]
+    atomic_write_text(dest / "README.md", "\n".join([
+        f"# The packaged {run.spec().method} policy", "",
+        f"The actor of `{ck.relative_to(run.path)}` at epoch {int(ts.epoch)} ({last.get('env_steps', 0):,} env steps, "
+        f"{last.get('seconds', 0) / 3600:.1f} h of training), trained by:", "", "```bash", command, "```", "",
+        "`run.json` is its run record (its objects by name: they are built by the command), `actor.msgpack` the "
+        "policy's parameters and observation normalisers (`ppo/checkpoint.save_actor`).", ""]))
+    return dest
+
+
+def open_object(object_dir: str, damping: float, out: str | Path, checkpoint: str = GENERALIST,
+                episodes: int = OPEN_EPISODES, backend: str | None = None, renderer: str = "auto",
+                every: int = VIDEO_EVERY) -> dict:
+    """``dragmesh2 open``: the packaged generalist (or ``checkpoint``) on ``object_dir`` at ``damping``, no training:
+    the trajectory built, ``episodes`` deterministic episodes from perturbed starts, and in ``out`` the trajectory,
+    ``report.md`` and ``report.json`` (success, steps, wrist load, the physical figures), ``video`` (MP4 or GIF) and
+    ``still.png`` (its last frame). Returns the report."""
+    if not Path(object_dir).is_dir():
+        raise DragMeshError(f"{object_dir}: no such object folder")
+    out = Path(out)
+    program, ts, run, ck = load_run(checkpoint, backend, object_dir=object_dir)
+    protocol = EvalProtocol(dampings=(damping,), modes=("det",), episodes=episodes)
+    result, _ = evaluate_loaded(program, ts, run, ck, protocol, Path(object_dir).name)
+    (cell,) = result["cells"]
+    task = EvalProtocol(starts=None).task(program.task)
+    video, used = render_policy_video(task, program.controller(ts), [damping], out / "video.mp4", every=every,
+                                      renderer=renderer, still=out / "still.png")
+    write_trajectory(program.task.traj, out / "trajectory.json")
+    report = {"object": str(Path(object_dir).resolve()), "checkpoint": str(ck), "method": run.spec().method,
+              "damping": damping, "episodes": episodes, "success_rate": cell["success_rate"],
+              "successes": cell["successes"], "steps_mean": cell["steps_mean"],
+              "wrist_load_peak_n": cell["wrist_load_peak_n"], "palm_speed_peak_m_s": cell["palm_speed_peak_m_s"],
+              "penetration_max_mm": cell["penetration_max_mm"], "clip099_active": cell["clip099_active"],
+              "video": str(video), "renderer": used, "still": str(out / "still.png")}
+    atomic_write_json(out / "report.json", report)
+    atomic_write_text(out / "report.md", _markdown(report, Path(object_dir).name))
+    return report
+
+
+def _markdown(r: dict, name: str) -> str:
+    return "\n".join([
+        f"# {name}: the {r['method']} policy at damping x{r['damping']:g}", "",
+        f"- opened in **{r['successes']} of {r['episodes']}** deterministic episodes (perturbed starts), "
+        f"{r['steps_mean']:.0f} control steps on average (1/60 s each)",
+        f"- wrist load p95 {r['wrist_load_peak_n']:.0f} N, palm speed p95 {r['palm_speed_peak_m_s']:.2f} m/s, deepest "
+        f"penetration {r['penetration_max_mm']:.1f} mm, saturated active DoFs {r['clip099_active']:.2f}",
+        f"- checkpoint: `{r['checkpoint']}`", f"- video: `{Path(r['video']).name}` ({r['renderer']}), still: "
+        "`still.png`", "", f"![the last frame]({Path(r['still']).name})", ""])

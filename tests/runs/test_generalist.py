@@ -1,0 +1,131 @@
+"""The generalist as part of the tool: ``train --generalist`` over the procedural mix of every category (trained,
+resumed, its objects held aside across categories), its policy packaged as an exported actor that ``evaluate``,
+``video``, ``finetune`` and ``open`` take as ``--checkpoint generalist``, and the packaged one that ships."""
+
+import json
+import math
+from pathlib import Path
+
+import jax
+import numpy as np
+import pytest
+
+from dragmesh2_jax.assets import procedural
+from dragmesh2_jax.assets.procedural import CATEGORIES, GENERALIST_MIX, default_object, held_aside_by_category
+from dragmesh2_jax.policies.methods import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS
+from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.train import policy_params
+from dragmesh2_jax.runs.commands import load_run
+from dragmesh2_jax.runs.generalist import GENERALIST, package_run
+from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED, RunDir
+from dragmesh2_jax.runs.spec import method_defaults
+from tests.conftest import TINY_RUNS, installed_command
+
+pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # beside the other tiny runs: the engine's programs compile once
+
+dragmesh2 = installed_command()
+#: Two categories, three objects: one drawer cabinet trained on, a drawer cabinet and a door cabinet held aside.
+TINY_MIX = {"drawer_cabinet": 2, "door_cabinet": 1}
+TINY = ["--epochs", "2", "--num-envs", "2", "--ppo.rollout-len", "8", "--robust-every", "2", "--save-every", "2",
+        "--network.state-sizes", "32,32", "--network.hist-dim", "16", "--network.heads", "2",
+        "--network.critic-sizes", "32", "--backend", "mujoco", "--quiet"]
+
+
+def test_the_mix_has_every_category_and_holds_one_of_each_aside():
+    assert set(GENERALIST_MIX) == set(CATEGORIES)
+    names = [f"{c}_{procedural.GENERALIST_SEED + i:04d}" for c, k in GENERALIST_MIX.items() for i in range(k)]
+    objects, trajectories, held = held_aside_by_category(names, [f"{n}.json" for n in names])
+    assert held == len(CATEGORIES) and sorted(objects) == sorted(names)
+    assert [t[:-5] for t in trajectories] == objects  # each trajectory stays with its object
+    assert {procedural.category_of(o) for o in objects[-held:]} == set(CATEGORIES)  # one of each, last
+    assert all(objects.index(o) < len(objects) - held for o in names if o not in objects[-held:])
+
+
+def test_the_budget_is_ten_million_env_steps_at_the_default_batch():
+    batch = PPOConfig().num_envs * PPOConfig().rollout_len
+    assert math.ceil(GENERALIST_ENV_STEPS / batch) == GENERALIST_EPOCHS
+    spec = method_defaults(GENERALIST)
+    assert spec.schedule.epochs == GENERALIST_EPOCHS and spec.task.observation == "handle"
+    assert spec.schedule.checkpoint == "final" and spec.network.critic == "privileged"
+
+
+@pytest.fixture(scope="module")
+def generalist_run(tmp_path_factory, monkeypatch_module):
+    monkeypatch_module.setattr(procedural, "GENERALIST_MIX", TINY_MIX)
+    out = tmp_path_factory.mktemp("generalist") / "run"
+    assert dragmesh2(["train", "--generalist", "--out", str(out), "--seed", "3", *TINY]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def monkeypatch_module():
+    with pytest.MonkeyPatch.context() as mp:
+        yield mp
+
+
+def test_train_generalist_trains_its_method_over_its_mix_and_resumes(generalist_run, capsys):
+    spec = RunDir(generalist_run).spec()
+    assert spec.method == GENERALIST and spec.schedule.seed == 3 and spec.schedule.epochs == 2
+    assert [Path(o).name for o in spec.objects] == ["drawer_cabinet_2000", "door_cabinet_2000",
+                                                    "drawer_cabinet_2001"]  # the last of each category held aside
+    assert spec.holdout == 2 and (generalist_run / "objects" / "manifest.csv").is_file()
+    assert RunDir(generalist_run).robust_rows()  # checked on the held-aside objects
+    assert dragmesh2(["train", "--generalist", "--out", str(generalist_run), "--resume", "--epochs", "3",
+                      "--backend", "mujoco", "--quiet"]) == 0
+    assert RunDir(generalist_run).log_rows()[-1]["epoch"] == 3
+    capsys.readouterr()
+    for bad in (["--object", str(default_object())], ["--method", "pica"]):
+        assert dragmesh2(["train", "--generalist", "--out", str(generalist_run / "x"), *bad]) == 2
+        assert capsys.readouterr().err.startswith("error: --generalist trains its own method")
+
+
+@pytest.fixture(scope="module")
+def packaged(generalist_run, tmp_path_factory, monkeypatch_module):
+    dest = package_run(str(generalist_run), tmp_path_factory.mktemp("pkg") / "generalist", "dragmesh2 train ...")
+    monkeypatch_module.setitem(PACKAGED, GENERALIST, dest)
+    return dest
+
+
+def test_a_packaged_run_is_its_record_and_its_actor_and_acts_as_the_run(generalist_run, packaged):
+    assert sorted(p.name for p in packaged.iterdir()) == ["README.md", ACTOR_NAME, "run.json"]
+    record = json.loads((packaged / "run.json").read_text())
+    assert record["object"] == "drawer_cabinet_2000" and "dragmesh2 train" in (packaged / "README.md").read_text()
+    obj = str(default_object())
+    _, ts, run, ck = load_run(str(generalist_run), object_dir=obj)
+    _, pts, prun, pck = load_run(GENERALIST)
+    assert prun.packaged and pck == packaged / ACTOR_NAME and int(pts.epoch) == int(ts.epoch) == 3
+    a, b = policy_params(ts), policy_params(pts)
+    for name in ("state_mlp", "temporal", "mu", "log_std"):  # the policy's parameters, exactly
+        for x, y in zip(jax.tree.leaves(a["net"]["params"][name]), jax.tree.leaves(b["net"]["params"][name]),
+                        strict=True):
+            np.testing.assert_array_equal(x, y)
+    np.testing.assert_array_equal(a["state_stats"].mean, b["state_stats"].mean)
+
+
+def test_checkpoint_generalist_in_evaluate_video_and_finetune(packaged, tmp_path, capsys):
+    assert dragmesh2(["evaluate", "--checkpoint", "generalist", "--damping", "1", "--mode", "det", "--episodes", "2",
+                      "--backend", "mujoco", "--json"]) == 0
+    out = capsys.readouterr()
+    (cell,) = json.loads(out.out)["cells"]
+    assert cell["episodes"] == 2 and "not written" in out.err
+    assert not list(packaged.glob("evaluations")) and not (packaged / ".lock").exists()  # never written
+    video = tmp_path / "g.gif"
+    assert dragmesh2(["video", "--checkpoint", "generalist", "--damping", "1", "--out", str(video), "--every", "100",
+                      "--renderer", "matplotlib", "--backend", "mujoco"]) == 0
+    assert video.is_file()
+    assert dragmesh2(["finetune", "--checkpoint", "generalist", "--recipe", "continued", "--out", str(tmp_path / "ft"),
+                      "--epochs", "1", "--robust-every", "0", "--backend", "mujoco", "--quiet"]) == 0
+    assert RunDir(tmp_path / "ft").spec().parent == str(packaged / ACTOR_NAME)
+
+
+def test_open_writes_a_report_a_video_and_a_still(packaged, tmp_path, capsys):
+    out = tmp_path / "open"
+    assert dragmesh2(["open", "--object", str(default_object()), "--damping", "2", "--out", str(out), "--episodes",
+                      "2", "--every", "100", "--renderer", "matplotlib", "--backend", "mujoco"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["damping"] == 2.0 and report["episodes"] == 2 and report["method"] == GENERALIST
+    assert 0 <= report["success_rate"] <= 1 and report["wrist_load_peak_n"] >= 0
+    assert {"report.md", "report.json", "still.png", "trajectory.json"} <= {p.name for p in out.iterdir()}
+    assert Path(report["video"]).is_file() and "opened in" in (out / "report.md").read_text()
+    assert capsys.readouterr().out.startswith("drawer_cabinet_0000 at x2: opened ")
+    assert dragmesh2(["open", "--object", str(tmp_path / "nothing")]) == 2
