@@ -11,6 +11,8 @@ Choices (documented, all in :class:`SceneConfig`):
     self-collision, no part-part collisions. By default only target-part pieces within ``collision_radius``
     of the handle collide (the handle and the front around it), which bounds MJX's contact buffer; static
     pieces are visual. ``collide="all"`` makes every object piece collide.
+  * The handle moves with the target part even where its link hangs off a joint of its own (a door knob's turn);
+    a handle link without a mesh is grasped by its annotated box (``stats["handle_geometry"]``).
   * Target part mass: a thin-shell estimate, ``link_areal_density`` x the surface of its bounding box.
   * Solver for MJX: Newton, few iterations, implicitfast integrator (stiff PD damping), dense Jacobian,
     Euler damping off, pyramidal cone; dt = 1/240 s (the reference's PhysX substep).
@@ -186,6 +188,18 @@ def _piece_geom(parent: ET.Element, asset: ET.Element, piece: ConvexPiece, name:
     ET.SubElement(parent, "geom", **attrs)
 
 
+def _handle_box_geom(parent: ET.Element, frame: HandleFrame, scale: float, friction: float) -> None:
+    """The handle's annotated box (the graspable side of a knob annotated through the panel) as a collision box."""
+    rot = np.stack([frame.long_axis, frame.short_axis, frame.normal], axis=1)
+    if np.linalg.det(rot) < 0:
+        rot[:, 1] = -rot[:, 1]
+    q = Rotation.from_matrix(rot).as_quat()  # xyzw
+    ET.SubElement(parent, "geom", name="handle_box", type="box", pos=_fmt(scale * frame.centre),
+                  size=_fmt(scale * np.maximum([frame.length, frame.width, frame.thickness], 1e-3) / 2),
+                  quat=_fmt([q[3], q[0], q[1], q[2]]), contype="2", conaffinity="1", condim="3",
+                  friction=f"{friction} 0.02 0.001", mass="0", rgba=HANDLE_RGBA, group="2")
+
+
 def _piece_near(piece: ConvexPiece, handle_box: np.ndarray, radius: float, scale: float) -> bool:
     """Whether the piece's hull comes within ``radius`` of the handle's box (surface to surface: a large flat
     panel counts by its nearest point, not by its vertices or its centre)."""
@@ -220,7 +234,7 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
 
     obj_body = ET.SubElement(world, "body", name="object", pos=_fmt(pos))
     handle_links = {p.link for p in obj.parts if p.is_handle}
-    n_collide, max_verts, n_pieces = 0, 0, 0
+    n_collide, max_verts, n_pieces, handle_collides = 0, 0, 0, False
     target_pieces: list[ConvexPiece] = []
     target_body = ET.Element("body", name=TARGET_BODY, pos="0 0 0")
     j = t.joint
@@ -230,7 +244,8 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
                   damping=f"{config.damping}", armature=f"{config.armature}", limited="true",
                   solreflimit=f"{config.hand.contact_timeconst} 1")
     for name, link in obj.links.items():
-        in_target = name in t.attached_links
+        # the handle moves with the part even where it hangs off a joint of its own (a door knob's turn)
+        in_target = name in t.attached_links or name == handle_obj.link
         # Only handles that can be touched are decomposed (decomposition is the slow, cached step).
         decompose = (name in handle_links and config.geometry.decompose_handles
                      and (in_target or config.collide == "all"))
@@ -243,12 +258,17 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
             _piece_geom(target_body if in_target else obj_body, asset, piece, f"{name}_{k}", s, collide,
                         config.friction, rgba)
             n_collide += collide
+            handle_collides |= collide and name == handle_obj.link
             n_pieces += 1
             max_verts = max(max_verts, piece.num_vertices)
             if in_target:
                 target_pieces.append(piece)
     if not target_pieces:
         raise DragMeshError(f"{obj.folder}: target part {t.part.link} has no geometry")
+    handle_geometry = "mesh"
+    if handle_obj.source == "handle" and not handle_collides:  # a handle link without a mesh: its annotated box
+        _handle_box_geom(target_body, handle_obj, s, config.friction)
+        handle_geometry, n_collide = "annotated box", n_collide + 1
     if n_collide == 0:
         raise DragMeshError(f"{obj.folder}: no collision geometry within {config.collision_radius} m of the handle")
     corners = s * np.concatenate([p.corners() for p in target_pieces])
@@ -298,5 +318,6 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     )
     stats = {"collision_pieces": int(n_collide), "pieces": int(n_pieces), "max_hull_vertices": int(max_verts),
              "target_mass_kg": round(float(mass), 4), "nq": int(model.nq), "nv": int(model.nv), "nu": int(model.nu),
-             "ngeom": int(model.ngeom), "contact_pairs": int(len(hand_geoms) * len(obj_geoms))}
+             "ngeom": int(model.ngeom), "contact_pairs": int(len(hand_geoms) * len(obj_geoms)),
+             "handle_geometry": handle_geometry}
     return Scene(model=model, ids=ids, obj=obj, config=config, xml=xml, handle=handle_obj.scaled(s, pos), stats=stats)

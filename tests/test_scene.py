@@ -67,3 +67,45 @@ def test_bad_scene_config():
 def test_collide_all_adds_static_pieces(real_objects, real_scenes):
     sc_all = build_scene(real_objects["45780"], SceneConfig(collide="all"))
     assert len(sc_all.ids.object_collision_geoms) > len(real_scenes["45780"].ids.object_collision_geoms)
+
+
+def _urdf_edit(folder, old: str, new: str) -> None:
+    path = folder / "mobility_annotation_gapartnet.urdf"
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+
+
+def test_a_knob_on_a_joint_of_its_own_moves_with_the_door_and_a_handle_without_a_mesh_is_its_annotated_box(
+        tmp_path):
+    """Two ways a real door's knob is modelled: a link on a joint of its own (the knob's turn) is welded to the
+    door it opens (before, its pieces stood still in the world while the door swung), and a handle link without a
+    mesh is grasped by its annotated box (``stats`` says which); the object as synthesised collides by its meshes."""
+    from dragmesh2_jax.assets.gapartnet import load_gapartnet
+    from dragmesh2_jax.assets.procedural import synthesize
+
+    def target_geoms(scene):
+        m = scene.model
+        body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "object_target")
+        return {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(m.ngeom)
+                if m.geom_bodyid[g] == body and g in scene.ids.object_collision_geoms}
+
+    (turning,) = synthesize("double_knob_door", 1, 0, tmp_path / "turning")
+    assert build_scene(load_gapartnet(turning)).stats["handle_geometry"] == "mesh"
+    _urdf_edit(turning, '<joint name="joint_handle" type="fixed">', '<joint name="joint_handle" type="revolute">'
+               '<axis xyz="0 0 1"/><limit lower="0.0" upper="1.0"/>')
+    scene = build_scene(load_gapartnet(turning))
+    assert scene.obj.target.joint.name == "joint_door" and scene.stats["handle_geometry"] == "mesh"
+    assert {g for g in target_geoms(scene) if g.startswith("link_handle_")}  # the knob swings with the door
+
+    (bare,) = synthesize("double_knob_door", 1, 0, tmp_path / "bare")
+    path = bare / "mobility_annotation_gapartnet.urdf"
+    text = path.read_text()
+    start = text.index('<link name="link_handle">')
+    path.write_text(text[:start] + '<link name="link_handle">' + text[text.index("</link>", start):])
+    scene = build_scene(load_gapartnet(bare))
+    assert scene.stats["handle_geometry"] == "annotated box" and "handle_box" in target_geoms(scene)
+    m, d = scene.model, mujoco.MjData(scene.model)
+    mujoco.mj_forward(m, d)
+    box = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "handle_box")
+    np.testing.assert_allclose(d.geom_xpos[box], scene.handle.centre, atol=1e-6)  # where the handle frame is
