@@ -6,7 +6,8 @@ of a flag, so an appended flag replaces the written one). ``bench env`` is measu
 engines compile for minutes on a CPU and are measured by ``tests/test_bench.py`` and
 ``tests/physics/test_mjx_backend.py``. The ``reproduce`` plans (hours of training) run with their training and
 evaluation steps replaced by stand-ins that leave what the real ones leave; ``tests/test_reproduce.py`` runs one
-real table. ``view`` opens MuJoCo's viewer on a virtual screen, as its own process."""
+real table. ``view`` opens MuJoCo's viewer on a virtual screen, as its own process. ``train --generalist`` trains
+over three procedural objects instead of its mix's fifty."""
 
 import glob
 import json
@@ -19,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.reproduce import executor
 from tests.conftest import ROOT, SHARED, installed_command, require_shared
@@ -47,6 +49,7 @@ BUDGETS = [
     ("dragmesh2 train --method pica --object ../shared/gapartnet/45261 --out runs/pica3 ", TRAIN),
     ("dragmesh2 train --method pica --objects ", TRAIN),
     ("dragmesh2 train --method pica --dataset ", TRAIN),
+    ("dragmesh2 train --generalist ", TRAIN),
     ("dragmesh2 evaluate --checkpoint runs/pica_45261 ", ["--episodes", "1"]),
     ("dragmesh2 evaluate --checkpoint runs/hold", ["--episodes", "1", "--mode", "det"]),
     ("dragmesh2 evaluate --checkpoint runs/mix ", ["--episodes", "1", "--mode", "det"]),
@@ -100,6 +103,7 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, displ
     fake = FakeSteps()
     monkeypatch.setattr(executor, "_train", fake.train)
     monkeypatch.setattr(executor, "_evaluate", fake.evaluate)
+    monkeypatch.setattr(procedural, "GENERALIST_MIX", {"drawer_cabinet": 2, "door_cabinet": 1})  # 3, not 50
     env = {**{k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}, "DISPLAY": display}
     printed = {}  # each command's (stdout, stderr), by its start in BUDGETS
     for command, (start, budget) in zip(readme_commands(), BUDGETS, strict=True):
@@ -127,6 +131,8 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, displ
     record = json.loads(Path("runs/pica3/seed_1/run.json").read_text())  # every flag reaches the record
     assert record["task"]["alpha"] == 0.03 and record["scene"]["damping"] == 25.0 and record["schedule"]["seed"] == 1
     assert record["network"]["state_sizes"] == [64, 64] and record["ppo"]["num_envs"] == 2
+    generalist = json.loads(Path("runs/gen/run.json").read_text())  # its method over its mix, held aside by category
+    assert generalist["method"] == "generalist" and generalist["holdout"] == 2 and len(generalist["objects"]) == 3
     # zero-shot on an unseen folder: its own evaluation file; the fine-tune onto it is a run of that object alone
     (zero_shot,) = Path("runs/mix/evaluations").glob("*__on-45780.json")
     assert json.loads(zero_shot.read_text())["zero_shot"]
