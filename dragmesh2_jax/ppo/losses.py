@@ -60,16 +60,23 @@ def compute_gae(rewards, values, dones, last_value, gamma: float, lam: float):
     return adv, adv + values
 
 
-def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: Batch, config: PPOConfig, w_aux):
+def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: Batch, config: PPOConfig, w_aux,
+                     axis: str | None = None):
     """(total loss, its terms) of a minibatch. ``apply(params, state, history, privileged) -> (mu, log_std, value,
-    z_hist)``; ``aux_head(params, z_hist) -> prediction`` (None: no auxiliary loss)."""
+    z_hist)``; ``aux_head(params, z_hist) -> prediction`` (None: no auxiliary loss). ``axis``: a mesh axis the
+    minibatch is split over (equal shards): the advantages are normalised by the whole minibatch's moments (the
+    terms stay this shard's means: the caller averages their gradients over the axis)."""
     c = config
     mu, log_std, v, z = apply(params, batch.state, batch.history, batch.privileged)
     logp = gaussian_logp(batch.action, mu, log_std)
     ratio = jnp.exp(logp - batch.logp)
     adv = batch.advantage
     if c.normalize_advantage:
-        adv = (adv - adv.mean()) / (adv.std() + 1e-8)
+        if axis is None:
+            adv = (adv - adv.mean()) / (adv.std() + 1e-8)
+        else:
+            mean = jax.lax.pmean(adv.mean(), axis)
+            adv = (adv - mean) / (jnp.sqrt(jax.lax.pmean(jnp.mean((adv - mean) ** 2), axis)) + 1e-8)
     pg = -jnp.mean(jnp.minimum(ratio * adv, jnp.clip(ratio, 1 - c.clip_eps, 1 + c.clip_eps) * adv))
     if c.clip_value:
         v_clip = batch.value + jnp.clip(v - batch.value, -c.clip_eps, c.clip_eps)

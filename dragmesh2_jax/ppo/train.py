@@ -10,6 +10,9 @@ program once: a second object of the same structure (``task.data``, an argument)
                                                           env) + GAE + ``update_epochs`` x minibatch updates
   ``init_runs`` / ``epoch_runs``                         the same over a leading run axis (seeds), one program,
                                                           split over a device mesh when given (``shard_map``)
+  ``epoch(..., axis=WORLD_AXIS)``                        one run's worlds split over a mesh axis (inside
+                                                          ``shard_map``: ``ppo/distributed.py``): every reduction
+                                                          over the batch a collective over the axis
 
 Python loops over epochs (``train`` with callbacks: logs, checkpoints and robustness checks are the caller's).
 Time-limit truncations bootstrap from V(final observation); terminations (success, detachment) do not. The
@@ -43,6 +46,7 @@ from dragmesh2_jax.task.rewards import TERM_PREFIX
 from dragmesh2_jax.task.wrappers import AutoReset
 
 RUN_AXIS = "runs"  # the mesh axis the run (seed) axis is sharded over
+WORLD_AXIS = "worlds"  # the mesh axis one run's worlds are sharded over (data-parallel PPO)
 
 
 @struct.dataclass
@@ -164,7 +168,12 @@ def init(program: TrainProgram, data: TaskData, key: jax.Array) -> TrainState:
                       **program.task.adaptive_weights())
 
 
-def _rollout(program: TrainProgram, data: TaskData, ts: TrainState):
+def _shard_key(key: jax.Array, axis: str | None) -> jax.Array:
+    """``key`` as this shard's own stream (``axis`` None: ``key`` itself)."""
+    return key if axis is None else jax.random.fold_in(key, jax.lax.axis_index(axis))
+
+
+def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | None = None):
     c, net = program.config, program.net
     env = _env(program, data, ts)
     step = jax.vmap(env.step)
@@ -177,7 +186,7 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState):
         rng, k = jax.random.split(rng)
         obs = env_state.obs
         mu, log_std, v, _ = apply(obs)
-        a = mu + jnp.exp(log_std) * jax.random.normal(k, mu.shape)
+        a = mu + jnp.exp(log_std) * jax.random.normal(_shard_key(k, axis), mu.shape)
         nxt = step(env_state, a)
         # bootstrap time limits only; the value of the final observations only at a step where one truncates
         v_final = jax.lax.cond(nxt.truncated.any(), lambda o: apply(o)[2], lambda o: jnp.zeros_like(v),
@@ -195,12 +204,18 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState):
     return env_state, rng, traj, adv, ret
 
 
-def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainState, dict]:
-    """One epoch: rollout, GAE, PPO update. Returns the new state and the epoch's metrics (every one is logged)."""
+def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | None = None) -> tuple[TrainState, dict]:
+    """One epoch: rollout, GAE, PPO update. Returns the new state and the epoch's metrics (every one is logged).
+
+    ``axis``: a mesh axis the worlds are split over (inside ``shard_map``; ``ts.env_state`` holds this shard's
+    worlds, everything else is the same on every shard). Each shard rolls out its worlds on its own random stream
+    and samples its own minibatches; gradients, normalisers' statistics, the adaptive learning rate's KL, the
+    metrics and the reward's adaptive weights are reduced over the axis, so every shard ends with the same state
+    but its worlds. None: the whole batch here (no collective)."""
     c, net = program.config, program.net
-    env_state, rng, traj, adv, ret = _rollout(program, data, ts)
-    vs = ts.value_stats.update(ret[..., None])  # value normalisation (the reference's normalize_value)
-    n = c.num_envs * c.rollout_len
+    env_state, rng, traj, adv, ret = _rollout(program, data, ts, axis)
+    vs = ts.value_stats.update(ret[..., None], axis)  # value normalisation (the reference's normalize_value)
+    n = traj["reward"].size  # this shard's samples (all of them: num_envs x rollout_len)
     flat = lambda x: x.reshape(n, *x.shape[2:])  # noqa: E731
     obs = jax.tree.map(flat, traj["obs"])
     s_in, h_in, p_in = _inputs(program, ts, obs)
@@ -216,16 +231,19 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
     ts = ts.replace(value_stats=vs)
     w_aux = c.aux_weight_at(ts.epoch)
     aux_head = (lambda p, z: net.apply(p, z, method=ActorCritic.aux)) if program.use_aux else None
-    grad_fn = jax.grad(functools.partial(compute_ppo_loss, apply=net.apply, aux_head=aux_head, config=c), has_aux=True)
+    grad_fn = jax.grad(functools.partial(compute_ppo_loss, apply=net.apply, aux_head=aux_head, config=c, axis=axis),
+                       has_aux=True)
+    mean = (lambda x: x) if axis is None else functools.partial(jax.lax.pmean, axis_name=axis)
+    total = (lambda x: x) if axis is None else functools.partial(jax.lax.psum, axis_name=axis)
 
     def update_epoch(carry, _):
         ts, rng = carry
         rng, k = jax.random.split(rng)
-        perm = jax.random.permutation(k, n).reshape(c.num_minibatches, -1)
+        perm = jax.random.permutation(_shard_key(k, axis), n).reshape(c.num_minibatches, -1)
 
         def minibatch(ts, idx):
             mb = batch.take(idx)
-            grads, info = grad_fn(ts.params, batch=mb, w_aux=w_aux)
+            grads, info = mean(grad_fn(ts.params, batch=mb, w_aux=w_aux))  # the whole minibatch's
             clip_state, adam_state = ts.opt_state
             adam_state = adam_state._replace(hyperparams={**adam_state.hyperparams, "learning_rate": ts.lr})
             updates, opt_state = program.tx.update(grads, (clip_state, adam_state), ts.params)
@@ -243,21 +261,24 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState) -> tuple[TrainS
     (ts, rng), info = jax.lax.scan(update_epoch, (ts, rng), None, length=c.update_epochs)
     info = jax.tree.map(lambda x: x[-1], info)
     if c.normalize_obs:  # statistics move after the update, so rollout and update saw the same inputs
-        ts = ts.replace(state_stats=ts.state_stats.update(obs.state), token_stats=ts.token_stats.update(obs.history),
-                        aux_stats=ts.aux_stats.update(obs.aux),
-                        privileged_stats=ts.privileged_stats.update(obs.privileged))
+        ts = ts.replace(state_stats=ts.state_stats.update(obs.state, axis),
+                        token_stats=ts.token_stats.update(obs.history, axis),
+                        aux_stats=ts.aux_stats.update(obs.aux, axis),
+                        privileged_stats=ts.privileged_stats.update(obs.privileged, axis))
     m, done = traj["metrics"], traj["done"]
-    episodes = done.sum()
-    at_end = lambda x: jnp.sum(x * done) / jnp.maximum(episodes, 1.0)  # noqa: E731
+    episodes = total(done.sum())
+    at_end = lambda x: total(jnp.sum(x * done)) / jnp.maximum(episodes, 1.0)  # noqa: E731
     metrics = {
-        **info, "lr": ts.lr, "w_aux": w_aux, "reward": traj["reward"].mean(), "episodes": episodes,
+        **info, "lr": ts.lr, "w_aux": w_aux, "reward": mean(traj["reward"].mean()), "episodes": episodes,
         "success": at_end(m["success"]), "progress": at_end(m["progress"]), "detach": at_end(m["detach"]),
-        "episode_return": at_end(m["episode_return"]), "clip099": jnp.mean(m["action_abs_max"] > CLIP_LEVEL),
-        "clip099_active": jnp.mean(m["active_abs_max"] > CLIP_LEVEL),
-        "action_l2": m["action_l2"].mean(), "nonfinite": m["nonfinite"].sum(), "overflow": m["overflow"].sum(),
+        "episode_return": at_end(m["episode_return"]), "clip099": mean(jnp.mean(m["action_abs_max"] > CLIP_LEVEL)),
+        "clip099_active": mean(jnp.mean(m["active_abs_max"] > CLIP_LEVEL)),
+        "action_l2": mean(m["action_l2"].mean()), "nonfinite": total(m["nonfinite"].sum()),
+        "overflow": total(m["overflow"].sum()),
     }
-    metrics |= {k: v.mean() for k, v in m.items() if k.startswith(TERM_PREFIX)}  # per step, before normalisation
-    weights, metrics = program.task.update_weights(ts.weights, metrics, m)
+    metrics |= {k: mean(v.mean()) for k, v in m.items() if k.startswith(TERM_PREFIX)}  # per step, unnormalised
+    steps = m if axis is None else {k: mean(jnp.mean(v)) for k, v in m.items()}  # what the weights' rules read
+    weights, metrics = program.task.update_weights(ts.weights, metrics, steps)
     return ts.replace(**weights, env_state=env_state, rng=rng, epoch=ts.epoch + 1), metrics
 
 
