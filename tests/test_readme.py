@@ -50,6 +50,8 @@ BUDGETS = [
     ("dragmesh2 train --method pica --objects ", TRAIN),
     ("dragmesh2 train --method pica --dataset ", TRAIN),
     ("dragmesh2 train --generalist ", TRAIN),
+    ("dragmesh2 evaluate --checkpoint generalist ", ["--episodes", "1", "--mode", "det", "--damping", "1"]),
+    ("dragmesh2 open ", ["--episodes", "1", "--every", "100"]),
     ("dragmesh2 evaluate --checkpoint runs/pica_45261 ", ["--episodes", "1"]),
     ("dragmesh2 evaluate --checkpoint runs/hold", ["--episodes", "1", "--mode", "det"]),
     ("dragmesh2 evaluate --checkpoint runs/mix ", ["--episodes", "1", "--mode", "det"]),
@@ -133,6 +135,8 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, displ
     assert record["network"]["state_sizes"] == [64, 64] and record["ppo"]["num_envs"] == 2
     generalist = json.loads(Path("runs/gen/run.json").read_text())  # its method over its mix, held aside by category
     assert generalist["method"] == "generalist" and generalist["holdout"] == 2 and len(generalist["objects"]) == 3
+    opened = json.loads(Path("open_45780/report.json").read_text())  # the packaged generalist on a shared door
+    assert opened["method"] == "generalist" and Path("open_45780/still.png").is_file()
     # zero-shot on an unseen folder: its own evaluation file; the fine-tune onto it is a run of that object alone
     (zero_shot,) = Path("runs/mix/evaluations").glob("*__on-45780.json")
     assert json.loads(zero_shot.read_text())["zero_shot"]

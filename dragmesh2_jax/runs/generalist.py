@@ -57,11 +57,12 @@ def package_run(checkpoint: str, dest: str | Path, command: str) -> Path:
     record = run.record()
     atomic_write_json(dest / "run.json", {**record, "object": Path(record["object"]).name, "objects": [
         {**o, "folder": Path(o["folder"]).name} for o in record.get("objects") or []]})
-    last = (run.log_rows() or [{}])[-1]
+    last = next((r for r in run.log_rows() if r["epoch"] == int(ts.epoch)), {})
     atomic_write_text(dest / "README.md", "\n".join([
         f"# The packaged {run.spec().method} policy", "",
-        f"The actor of `{ck.relative_to(run.path)}` at epoch {int(ts.epoch)} ({last.get('env_steps', 0):,} env steps, "
-        f"{last.get('seconds', 0) / 3600:.1f} h of training), trained by:", "", "```bash", command, "```", "",
+        f"The actor of `{ck.relative_to(run.path)}` at epoch {int(ts.epoch)} of {run.spec().schedule.epochs} "
+        f"({last.get('env_steps', 0):,} env steps, {last.get('seconds', 0) / 3600:.1f} h of training), trained by:",
+        "", "```bash", command, "```", "",
         "`run.json` is its run record (its objects by name: they are built by the command), `actor.msgpack` the "
         "policy's parameters and observation normalisers (`ppo/checkpoint.save_actor`).", ""]))
     return dest

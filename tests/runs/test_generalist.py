@@ -24,6 +24,7 @@ from tests.conftest import TINY_RUNS, installed_command
 pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # beside the other tiny runs: the engine's programs compile once
 
 dragmesh2 = installed_command()
+SHIPPED = PACKAGED[GENERALIST]  # the packaged generalist (the fixtures below stand a tiny one in its place)
 #: Two categories, three objects: one drawer cabinet trained on, a drawer cabinet and a door cabinet held aside.
 TINY_MIX = {"drawer_cabinet": 2, "door_cabinet": 1}
 TINY = ["--epochs", "2", "--num-envs", "2", "--ppo.rollout-len", "8", "--robust-every", "2", "--save-every", "2",
@@ -129,3 +130,10 @@ def test_open_writes_a_report_a_video_and_a_still(packaged, tmp_path, capsys):
     assert Path(report["video"]).is_file() and "opened in" in (out / "report.md").read_text()
     assert capsys.readouterr().out.startswith("drawer_cabinet_0000 at x2: opened ")
     assert dragmesh2(["open", "--object", str(tmp_path / "nothing")]) == 2
+
+
+def test_the_packaged_generalist_ships_under_five_mb_with_its_record_and_command():
+    folder = SHIPPED
+    assert (folder / ACTOR_NAME).stat().st_size < 5 * 2**20
+    assert RunDir(folder).spec().method == GENERALIST
+    assert "dragmesh2 train --generalist" in (folder / "README.md").read_text()
