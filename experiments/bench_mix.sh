@@ -2,12 +2,13 @@
 # Issue 21: does a batch that mixes objects step as fast as one object's? The C engine at 64 worlds (the PPO batch),
 # the packaged drawer alone against the four packaged objects mixed in one batch (drawer, heavy drawer, door cabinet,
 # dishwasher: each world steps one), alternately for ROUNDS rounds so that a noisy CPU weighs on both alike.
-# Writes results/speed/bench_env_mix.json (or $OUT) and prints the physics steps/s of each round and their ratio.
+# Writes results/speed/bench_env_mix.json (or $OUT/$NAME) and prints the physics steps/s of each round and their ratio.
+# OBJECTS (comma-separated folders) mixes those instead, e.g. the generalist's training objects (issue 36).
 set -euo pipefail
 out="${OUT:-results/speed}"
 rounds="${ROUNDS:-3}"
 mkdir -p "$out"
-objs=$(python3 -c "from dragmesh2_jax.assets.procedural import default_objects; print(','.join(map(str, default_objects())))")
+objs="${OBJECTS:-$(python3 -c "from dragmesh2_jax.assets.procedural import default_objects; print(','.join(map(str, default_objects())))")}"
 one=$(python3 -c "from dragmesh2_jax.assets.procedural import default_object; print(default_object())")
 tmp=$(mktemp -d)
 for r in $(seq "$rounds"); do
@@ -17,7 +18,7 @@ for r in $(seq "$rounds"); do
       > "$tmp/${which}_$r.json"
   done
 done
-python3 - "$tmp" "$rounds" "$out/bench_env_mix.json" <<'PY'
+python3 - "$tmp" "$rounds" "$out/${NAME:-bench_env_mix.json}" <<'PY'
 import json, statistics, sys
 from pathlib import Path
 from dragmesh2_jax.io import atomic_write_json
