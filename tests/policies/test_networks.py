@@ -177,8 +177,8 @@ def test_privileged_critic_sees_what_the_actor_never_does():
         mu1, _, v1, _ = apply(params, s, h, p1)
         np.testing.assert_array_equal(mu0, mu1)
         assert bool(jnp.any(v0 != v1)) == value_moves
-        mu_actor, _ = net.apply(params, s, h, method=ActorCritic.actor)
-        np.testing.assert_allclose(mu_actor, mu0, rtol=1e-6)
+        mu_actor, _ = net.apply(params, s, h, method=ActorCritic.actor)  # eager: XLA fuses the jitted one otherwise
+        np.testing.assert_allclose(mu_actor, mu0, rtol=1e-5, atol=1e-6)  # float32 rounding, not another actor
 
 
 def test_methods_are_override_sets():
