@@ -3,15 +3,18 @@
 # the recipe was chosen): the recipe (hold_blind) at its budget (300 epochs, final checkpoint) against the same runs'
 # epoch-150 checkpoints fine-tuned for 150 epochs under the `plausible` constraints (the palm's pace, the wrist load
 # and saturation; 300 epochs in all), their multipliers capped at 20 and at 100; 3 seeds, 50 perturbed starts per
-# cell, x1-x8 and x16, det and stoch, C engine; the physical figures are in every cell. Resumable: reproduce skips
-# what is done, a stopped fine-tune resumes.
-#   bash experiments/plausible_hold.sh [OUT]      (about 2 hours on 2 CPU cores)
+# cell, x1-x8 and x16, det and stoch, C engine; the physical figures are in every cell. The paper's methods (pica,
+# state_only) beside them at the same budget and checkpoint (300 epochs, final). Resumable: reproduce skips what is
+# done, a stopped fine-tune resumes.
+#   bash experiments/plausible_hold.sh [OUT]      (about 3 hours on 2 CPU cores)
 set -euo pipefail
 out=${1:-runs/plausible_hold}
 door=$(python -c "from dragmesh2_jax.assets.procedural import packaged_object; print(packaged_object('door_cabinet_0000'))")
 cells=(--damping 1,2,4,8,16 --episodes 50 --mode det,stoch --backend mujoco)
 dragmesh2 reproduce main --methods hold_blind --objects "$door" --seeds 0,1,2 --epochs 300 "${cells[@]}" \
   --out "$out/door"
+dragmesh2 reproduce main --methods pica,state_only --objects "$door" --seeds 0,1,2 --epochs 300 --checkpoint final \
+  "${cells[@]}" --out "$out/door_paper"
 for recipe in plausible plausible_cap100; do for s in 0 1 2; do
   ft="$out/$recipe/s$s"
   if [ ! -f "$ft/run.json" ]; then

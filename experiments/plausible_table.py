@@ -1,7 +1,7 @@
 """The table of experiments/plausible_hold.sh: per method and damping, success and the physical figures (mean ± SE
 over seeds, every seed's value), from the evaluation files the runs keep, with the expert at its own pace beside them.
 
-    python experiments/plausible_table.py OUT [--mode det]      (OUT: the script's output folder)"""
+    python experiments/plausible_table.py OUT [--mode det]   (OUT: the script's output folder or results/plausible)"""
 
 from __future__ import annotations
 
@@ -28,8 +28,10 @@ def cell(values: list[float], fmt: str) -> str:
 
 
 def latest(folder: Path) -> dict:
-    """The run's evaluation of its final checkpoint (reproduce names it by its epoch) at x1-x16, 50 episodes."""
-    (path,) = sorted(folder.glob("evaluations/*__x1-2-4-8-16_det-stoch_n50_*.json"))[-1:]
+    """The run's evaluation of its final checkpoint (reproduce names it by its epoch) at x1-x16, 50 episodes: in the
+    run's evaluations, or beside its run.json (as results/plausible keeps them)."""
+    (path,) = sorted([*folder.glob("evaluations/*__x1-2-4-8-16_det-stoch_n50_*.json"),
+                      *folder.glob("*__x1-2-4-8-16_det-stoch_n50_*.json")])[-1:]
     return json.loads(path.read_text())
 
 
@@ -39,9 +41,12 @@ def main(argv=None) -> int:
     ap.add_argument("--mode", default="det")
     a = ap.parse_args(argv)
     out = Path(a.out)
-    rows = {"hold_blind (300 epochs)": sorted(out.glob("door/runs/*/hold_blind_s*")),
-            "hold_blind 150 + plausible 150": sorted(out.glob("plausible/s*")),
-            "hold_blind 150 + plausible_cap100 150": sorted(out.glob("plausible_cap100/s*"))}
+    runs = lambda *patterns: sorted(f for pattern in patterns for f in out.glob(pattern))  # noqa: E731
+    rows = {"pica (300 epochs)": runs("door_paper/runs/*/pica_s*", "pica_s*"),
+            "state_only (300 epochs)": runs("door_paper/runs/*/state_only_s*", "state_only_s*"),
+            "hold_blind (300 epochs)": runs("door/runs/*/hold_blind_s*", "hold_blind_s*"),
+            "hold_blind 150 + plausible 150": runs("plausible/s*", "plausible_s*"),
+            "hold_blind 150 + plausible_cap100 150": runs("plausible_cap100/s*", "plausible_cap100_s*")}
     lines = ["| method | damping | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
              "|---|---|" + "---|" * len(COLUMNS)]
     for name, folders in rows.items():
