@@ -18,7 +18,7 @@ from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.io import atomic_write_json
 from dragmesh2_jax.runs.commands import evaluate_checkpoint
 from dragmesh2_jax.runs.generalist import GENERALIST, package_run
-from dragmesh2_jax.runs.rundir import PACKAGED
+from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "gapartnet"
@@ -34,7 +34,7 @@ def main() -> None:
     p.add_argument("--out", default=str(ROOT / "results" / "generalist_v2" / "packaged_zero_shot.json"))
     args = p.parse_args()
     dest = package_run(args.checkpoint or args.run, PACKAGED[GENERALIST], args.command)
-    print(f"packaged: {dest} ({(dest / 'actor.msgpack').stat().st_size / 2**20:.2f} MB actor)")
+    print(f"packaged: {dest} ({(dest / ACTOR_NAME).stat().st_size / 2**20:.2f} MB actor)")
     protocol = dataclasses.replace(PAPER, dampings=(1.0, 2.0, 4.0, 8.0), episodes=args.episodes)
     rows = {}
     for oid in OBJECTS:

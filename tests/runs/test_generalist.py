@@ -133,7 +133,6 @@ def test_open_writes_a_report_a_video_and_a_still(packaged, tmp_path, capsys):
 
 
 def test_the_packaged_generalist_ships_under_five_mb_with_its_record_and_command():
-    folder = SHIPPED
-    assert (folder / ACTOR_NAME).stat().st_size < 5 * 2**20
-    assert RunDir(folder).spec().method == GENERALIST
-    assert "dragmesh2 train --generalist" in (folder / "README.md").read_text()
+    assert (SHIPPED / ACTOR_NAME).stat().st_size < 5 * 2**20
+    assert RunDir(SHIPPED).spec().method == GENERALIST
+    assert "dragmesh2 train --generalist" in (SHIPPED / "README.md").read_text()
