@@ -103,6 +103,11 @@ def train_defaults(out: str | None, method: str | None, resume: bool, seeds: lis
     return method_defaults(method or DEFAULT_METHOD)
 
 
+def run_dirs(out: str | Path, seeds: list[int] | None) -> list[RunDir]:
+    """The run folders of a training command: ``out``, or one per seed in ``out/seed_N``."""
+    return [RunDir(Path(out) / f"seed_{s}") for s in seeds] if seeds else [RunDir(out)]
+
+
 def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str | None = None,
               backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
               task_changes: dict | None = None, scene_changes: dict | None = None,
@@ -116,7 +121,7 @@ def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | No
     selection. Returns (program, [(seed, log rows)])."""
     if seeds is not None and not seeds:
         raise DragMeshError("--seeds: no seeds given")
-    runs = [RunDir(Path(out) / f"seed_{s}") for s in seeds] if seeds else [RunDir(out)]
+    runs = run_dirs(out, seeds)
     schedule_changes = schedule_changes or {}
     if resume:
         if trajectory is not None:

@@ -14,7 +14,7 @@ from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.ppo.checkpoint import save_actor
 from dragmesh2_jax.ppo.train import TrainProgram
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
-from dragmesh2_jax.runs.commands import dataset_objects, evaluate_loaded, load_run, train_run
+from dragmesh2_jax.runs.commands import dataset_objects, evaluate_loaded, load_run, run_dirs, train_run
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, RunDir
 from dragmesh2_jax.trajectory.dataset import build_dataset
 from dragmesh2_jax.trajectory.schema import write_trajectory
@@ -39,11 +39,15 @@ def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str
                    progress: bool = True, wandb: str | None = None) -> tuple[TrainProgram, list]:
     """``train --generalist``: the ``generalist`` method over its objects (``generalist_objects``), new or resumed;
     ``changes``: each group's fields the command's flags changed (``cli.flags.tree_changes``)."""
-    objects, trajectories, holdout = generalist_objects(out, progress)
-    return train_run(out, objects, None if resume else trajectories, GENERALIST, backend, impl, seeds, resume,
-                     task_changes=changes["task"], scene_changes=changes["scene"], network_changes=changes["network"],
-                     schedule_changes=changes["schedule"], progress=progress, wandb=wandb, holdout=holdout,
-                     **changes["ppo"])
+    with RunDir(out).writing():  # its objects are built into OUT: by the one writer, and never into another run
+        if not resume:
+            for run in run_dirs(out, seeds):
+                run.require_new()
+        objects, trajectories, holdout = generalist_objects(out, progress)
+        return train_run(out, objects, None if resume else trajectories, GENERALIST, backend, impl, seeds, resume,
+                         task_changes=changes["task"], scene_changes=changes["scene"],
+                         network_changes=changes["network"], schedule_changes=changes["schedule"], progress=progress,
+                         wandb=wandb, holdout=holdout, **changes["ppo"])
 
 
 def package_run(checkpoint: str, dest: str | Path, command: str) -> Path:

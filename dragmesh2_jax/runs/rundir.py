@@ -76,6 +76,11 @@ class RunDir:
         """Whether the folder holds a run (its record)."""
         return self.record_path.is_file()
 
+    def require_new(self) -> None:
+        """A new run goes to a folder that holds none: one error line otherwise."""
+        if self.exists():
+            raise DragMeshError(f"{self.path}: already holds a run (use --resume, or another --out)")
+
     @contextlib.contextmanager
     def writing(self) -> Iterator[RunDir]:
         """Hold the run folder's lock (created where missing) for the block: a second writer, in another process,
@@ -89,8 +94,8 @@ class RunDir:
         """Write the record and the trajectory of a new run (a run over several objects: one per object, in the
         spec's order) once: a folder that holds a run is an error unless ``replace``, for a run that stopped before
         it saved anything."""
-        if self.exists() and not replace:
-            raise DragMeshError(f"{self.path}: already holds a run (use --resume, or another --out)")
+        if not replace:
+            self.require_new()
         if self.exists():  # everything but the lock its writer holds
             for p in self.path.iterdir():
                 if p.name != LOCK_NAME:

@@ -80,6 +80,15 @@ def test_train_generalist_trains_its_method_over_its_mix_and_resumes(generalist_
         assert capsys.readouterr().err.startswith("error: --generalist trains its own method")
 
 
+def test_a_new_generalist_into_a_run_is_refused_before_it_writes(generalist_run, capsys):
+    objects = generalist_run / "objects"
+    before = {p: p.stat().st_mtime_ns for p in objects.rglob("*")}
+    capsys.readouterr()
+    assert dragmesh2(["train", "--generalist", "--out", str(generalist_run), *TINY]) == 2
+    assert capsys.readouterr().err.startswith(f"error: {generalist_run}: already holds a run")
+    assert {p: p.stat().st_mtime_ns for p in objects.rglob("*")} == before  # its objects as they were
+
+
 @pytest.fixture(scope="module")
 def packaged(generalist_run, tmp_path_factory, monkeypatch_module):
     dest = package_run(str(generalist_run), tmp_path_factory.mktemp("pkg") / "generalist", "dragmesh2 train ...")
