@@ -277,8 +277,11 @@ def cmd_open(args) -> int:
 
 
 def cmd_finetune(args) -> int:
+    schedule = {"save_every": args.save_every, "robust_every": args.robust_every}
+    if args.seed is not None:
+        schedule["seed"] = args.seed
     parent, rows = finetune_run(args.checkpoint, args.recipe, args.out, _engine(args.backend), args.impl, args.epochs,
-                                {"save_every": args.save_every, "robust_every": args.robust_every},
+                                schedule,
                                 progress=not args.quiet, object_dir=args.object, trajectory=args.trajectory)
     last = rows[-1] if rows else {}
     print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, training success "

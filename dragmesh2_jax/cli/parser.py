@@ -206,6 +206,8 @@ def build_parser() -> argparse.ArgumentParser:
     pft.add_argument("--recipe", required=True, help=" | ".join(FINETUNES))
     pft.add_argument("--out", required=True, help="run folder of the fine-tune")
     pft.add_argument("--epochs", type=POSITIVE, help="epochs to add (default: the preset's, 50)")
+    pft.add_argument("--seed", type=int, help="start the fine-tune's worlds and sampling from this seed (default: "
+                                              "the run's seed, continuing the checkpoint's stream)")
     pft.add_argument("--save-every", type=POSITIVE, default=SAVE_EVERY, help="epochs between checkpoints")
     pft.add_argument("--robust-every", type=NONNEGATIVE, default=ROBUST_EVERY,
                      help="epochs between robustness evaluations that select best_robust (0: off)")

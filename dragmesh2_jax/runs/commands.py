@@ -223,7 +223,9 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
     """A fine-tune preset continuing a trained run from ``checkpoint`` for the preset's epochs (or ``epochs``),
     counted on from the checkpoint's epoch, into ``out`` (on ``object_dir`` instead of the run's objects: a policy
     trained over several objects fine-tuned onto a new one), under the run's schedule with ``schedule``'s fields
-    (``save_every``, ``robust_every``, ...) changed; ``selection``: the robustness checks' protocol. Returns (parent
+    (``save_every``, ``robust_every``, ...) changed; ``selection``: the robustness checks' protocol. A ``seed`` in
+    ``schedule`` starts the fine-tune's worlds and its sampling stream from that seed (several fine-tunes of one
+    checkpoint, one per seed); without one it continues the checkpoint's stream under the run's seed. Returns (parent
     checkpoint, log rows)."""
     more = get_finetune(recipe).epochs if epochs is None else epochs
     if more < 1:
@@ -237,8 +239,10 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
     if object_dir:
         spec = on_object(spec, object_dir)
     program = program_of(spec, trajectories)
-    start = load_checkpoint(init_jit(program, program.data(), seed_keys([spec.schedule.seed])[0]), ck,
-                            keep_env=True)
+    fresh = init_jit(program, program.data(), seed_keys([spec.schedule.seed])[0])
+    start = load_checkpoint(fresh, ck, keep_env=True)
+    if "seed" in (schedule or {}):
+        start = start.replace(rng=fresh.rng)
     _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=list(program.task.trajectories),
                                  resume=False, start=start, selection=selection, progress=progress)
     return ck, logs[0]

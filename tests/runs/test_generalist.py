@@ -124,8 +124,9 @@ def test_checkpoint_generalist_in_evaluate_video_and_finetune(packaged, tmp_path
                       "--renderer", "matplotlib", "--backend", "mujoco"]) == 0
     assert video.is_file()
     assert dragmesh2(["finetune", "--checkpoint", "generalist", "--recipe", "continued", "--out", str(tmp_path / "ft"),
-                      "--epochs", "1", "--robust-every", "0", "--backend", "mujoco", "--quiet"]) == 0
-    assert RunDir(tmp_path / "ft").spec().parent == str(packaged / ACTOR_NAME)
+                      "--epochs", "1", "--robust-every", "0", "--seed", "7", "--backend", "mujoco", "--quiet"]) == 0
+    tuned = RunDir(tmp_path / "ft").spec()
+    assert tuned.parent == str(packaged / ACTOR_NAME) and tuned.schedule.seed == 7  # one fine-tune per seed
 
 
 def test_open_writes_a_report_a_video_and_a_still(packaged, tmp_path, capsys):

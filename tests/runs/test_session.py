@@ -122,6 +122,19 @@ def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
     assert program.task.config.reward.reconfig == ReconfigConfig()
 
 
+def test_a_finetune_seed_starts_its_own_stream_and_is_recorded(trained_run, tmp_path):
+    """Fine-tunes of one checkpoint under two seeds: each recorded, each its own worlds and sampling; without a seed
+    the run's seed, continuing the checkpoint's stream."""
+    logs = {}
+    for seed in (None, 5, 6):
+        out = tmp_path / f"ft_{seed}"
+        schedule = {"robust_every": 0} | ({} if seed is None else {"seed": seed})
+        _, logs[seed] = finetune_run(str(trained_run.path), "continued", str(out), epochs=1, schedule=schedule,
+                                     progress=False)
+        assert RunDir(out).spec().schedule.seed == (trained_run.spec().schedule.seed if seed is None else seed)
+    assert len({logs[s][0]["reward"] for s in logs}) == 3
+
+
 def test_the_same_scalars_go_to_weights_and_biases_offline(tmp_path, monkeypatch):
     """``--wandb PROJECT``: training hands the project to the run's scalar writer, which logs the TensorBoard scalars
     (training and robustness) to W&B too, here offline. The writer runs on a trained run's rows in a process of its
