@@ -16,7 +16,7 @@ from dragmesh2_jax.baselines import tracking
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
 from dragmesh2_jax.errors import DragMeshError, NotSaved, NotWritable
 from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES, envelope, evaluate, markdown_table
-from dragmesh2_jax.evaluation.protocol import PAPER, SELECTION, EvalProtocol
+from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import os_error_line
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint
@@ -217,16 +217,16 @@ def on_object(spec: RunSpec, object_dir: str) -> RunSpec:
 
 
 def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "jax",
-                 epochs: int | None = None, schedule: dict | None = None, selection: EvalProtocol = SELECTION,
+                 epochs: int | None = None, schedule: dict | None = None, selection: EvalProtocol | None = None,
                  progress: bool = True, object_dir: str | None = None,
                  trajectory: str | None = None) -> tuple[Path, list[dict]]:
     """A fine-tune preset continuing a trained run from ``checkpoint`` for the preset's epochs (or ``epochs``),
     counted on from the checkpoint's epoch, into ``out`` (on ``object_dir`` instead of the run's objects: a policy
     trained over several objects fine-tuned onto a new one), under the run's schedule with ``schedule``'s fields
-    (``save_every``, ``robust_every``, ...) changed; ``selection``: the robustness checks' protocol. A ``seed`` in
-    ``schedule`` starts the fine-tune's worlds and its sampling stream from that seed (several fine-tunes of one
-    checkpoint, one per seed); without one it continues the checkpoint's stream under the run's seed. Returns (parent
-    checkpoint, log rows)."""
+    (``save_every``, ``robust_every``, ...) changed; ``selection``: the robustness checks' protocol (None: the
+    schedule's). A ``seed`` in ``schedule`` starts the fine-tune's worlds and its sampling stream from that seed
+    (several fine-tunes of one checkpoint, one per seed); without one it continues the checkpoint's stream under the
+    run's seed. Returns (parent checkpoint, log rows)."""
     more = get_finetune(recipe).epochs if epochs is None else epochs
     if more < 1:
         raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")

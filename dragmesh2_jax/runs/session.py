@@ -105,7 +105,8 @@ class _Progress:
 def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] | None = None,
                     trajectory: str | Trajectory | None = None, resume: bool | None = None,
                     start: TrainState | None = None, backend: str | None = None, impl: str = "jax",
-                    selection: EvalProtocol = SELECTION, progress: bool = True, log_fn=None, wandb: str | None = None
+                    selection: EvalProtocol | None = None, progress: bool = True, log_fn=None,
+                    wandb: str | None = None
                     ) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
     """Train the runs in ``runs`` (one per seed, as one program) to their schedule's epochs, holding each run
     folder's lock throughout (a second writer is one error line).
@@ -117,7 +118,8 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
     is given (None: its own): its epochs (more extend the run) and its checkpoint and robustness intervals, revised
     in its record; the rest of the record stands. ``start``: a fine-tune's first state (one run). ``backend``:
     resume on this engine instead of the recorded task's. ``selection``: the protocol of the robustness checks
-    that keep ``best_robust`` (every ``schedule.robust_every`` epochs). ``wandb``: a W&B project that gets the same
+    that keep ``best_robust`` (every ``schedule.robust_every`` epochs; None: ``SELECTION`` at
+    ``schedule.robust_episodes`` episodes). ``wandb``: a W&B project that gets the same
     scalars as TensorBoard. Returns the program, the final state (leading run axis) and each run's log rows."""
     if seeds is None and spec is not None and not resume:  # a resume trains the seeds its runs recorded
         seeds = [spec.schedule.seed]
@@ -136,7 +138,7 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
 
 #: What a resume may change of a run's schedule: its length (more epochs extend it), checkpoint and robustness
 #: intervals. Its seed and how it is read stand with the rest of the record.
-RESCHEDULABLE = ("epochs", "save_every", "robust_every")
+RESCHEDULABLE = ("epochs", "save_every", "robust_every", "robust_episodes")
 
 
 def _continued(recorded: RunSpec, given: RunSpec | None) -> RunSpec:
@@ -208,6 +210,7 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
           robust_rows: list[list[dict]], schedule: Schedule, resumed: bool, selection: EvalProtocol,
           progress: bool, log_fn, wandb: str | None, heldout=None) -> TrainState:
     c, epochs, save_every, robust_every = program.config, schedule.epochs, schedule.save_every, schedule.robust_every
+    selection = selection or dataclasses.replace(SELECTION, episodes=schedule.robust_episodes)
     check = selection_check(program, selection, heldout) if robust_every > 0 else None
     first = int(ts.epoch[0])
     best = [max((r["reward"] for r in rr), default=-np.inf) for rr in rows]

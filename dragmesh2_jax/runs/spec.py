@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.io import hash_files
 from dragmesh2_jax.policies.methods import get_method, resolve
 from dragmesh2_jax.policies.networks import NetworkConfig
@@ -51,13 +52,14 @@ class Schedule:
     seed: int = 42  # the run's seed: its parameters, worlds and sampled actions
     save_every: int = SAVE_EVERY  # epochs between checkpoints (and the last epoch)
     robust_every: int = ROBUST_EVERY  # epochs between robustness checks selecting best_robust (and the last); 0: none
+    robust_episodes: int = SELECTION.episodes  # episodes per damping of a check (a mix: a held-aside object each)
     checkpoint: str = "best_robust"  # the checkpoint that stands for the run: one of CHECKPOINT_RULES
     dampings: tuple[float, ...] | None = None  # the damping cells it is evaluated at by default; None: x1/x2/x4
 
     def __post_init__(self):
-        if self.epochs < 1 or self.save_every < 1 or self.robust_every < 0:
-            raise DragMeshError(f"epochs and save_every must be >= 1 and robust_every >= 0, got {self.epochs}, "
-                                f"{self.save_every} and {self.robust_every}")
+        if self.epochs < 1 or self.save_every < 1 or self.robust_every < 0 or self.robust_episodes < 1:
+            raise DragMeshError(f"epochs, save_every and robust_episodes must be >= 1 and robust_every >= 0, got "
+                                f"{self.epochs}, {self.save_every}, {self.robust_episodes} and {self.robust_every}")
         if self.checkpoint not in CHECKPOINT_RULES:
             raise DragMeshError(f"checkpoint must be one of {', '.join(CHECKPOINT_RULES)}, got {self.checkpoint!r}")
         if self.dampings is not None and not (self.dampings and all(0 < d < math.inf for d in self.dampings)):

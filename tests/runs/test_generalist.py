@@ -12,7 +12,7 @@ import pytest
 
 from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.assets.procedural import CATEGORIES, GENERALIST_MIX, default_object, held_aside_by_category
-from dragmesh2_jax.policies.methods import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS
+from dragmesh2_jax.policies.methods import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, GENERALIST_ROBUST_EPISODES
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import policy_params
 from dragmesh2_jax.runs.commands import load_run
@@ -48,6 +48,7 @@ def test_the_budget_is_ten_million_env_steps_at_the_default_batch():
     spec = method_defaults(GENERALIST)
     assert spec.schedule.epochs == GENERALIST_EPOCHS and spec.task.observation == "handle"
     assert spec.schedule.checkpoint == "final" and spec.network.critic == "privileged"
+    assert spec.schedule.robust_episodes == GENERALIST_ROBUST_EPISODES >= 4 * len(CATEGORIES)  # each held aside ~4x
 
 
 @pytest.fixture(scope="module")

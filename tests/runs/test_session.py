@@ -122,6 +122,18 @@ def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
     assert program.task.config.reward.reconfig == ReconfigConfig()
 
 
+def test_the_robustness_checks_run_the_schedules_episodes(tmp_path, monkeypatch):
+    """Without a protocol given, a check is the selection protocol at the schedule's ``robust_episodes``."""
+    seen, check = [], session.selection_check
+    monkeypatch.setattr(session, "selection_check", lambda program, p, heldout: seen.append(p) or check(program, p,
+                                                                                                     heldout))
+    run = RunDir(tmp_path / "run")
+    start_or_resume(tiny_spec(schedule={"epochs": 1, "robust_every": 1, "robust_episodes": 3}), [run], resume=False,
+                    progress=False)
+    assert seen == [dataclasses.replace(SELECTION, episodes=3)] and run.spec().schedule.robust_episodes == 3
+    assert [r["epoch"] for r in run.robust_rows()] == [1]
+
+
 def test_a_finetune_seed_starts_its_own_stream_and_is_recorded(trained_run, tmp_path):
     """Fine-tunes of one checkpoint under two seeds: each recorded, each its own worlds and sampling; without a seed
     the run's seed, continuing the checkpoint's stream."""
