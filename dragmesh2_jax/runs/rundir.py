@@ -77,8 +77,9 @@ class RunDir:
         return self.record_path.is_file()
 
     def require_new(self) -> None:
-        """A new run goes to a folder that holds none: one error line otherwise."""
-        if self.exists():
+        """A new run goes to a folder that holds no trained run: one error line otherwise (a run that stopped before
+        its first checkpoint starts again)."""
+        if self.exists() and self.epoch_checkpoints():
             raise DragMeshError(f"{self.path}: already holds a run (use --resume, or another --out)")
 
     @contextlib.contextmanager
@@ -89,13 +90,11 @@ class RunDir:
             yield self
 
     # ----------------------------------------------------------------------------------- the record
-    def start(self, spec: RunSpec, backend: str, trajectory: Trajectory | list[Trajectory], replace: bool = False,
+    def start(self, spec: RunSpec, backend: str, trajectory: Trajectory | list[Trajectory],
               buffers: dict | None = None) -> None:
         """Write the record and the trajectory of a new run (a run over several objects: one per object, in the
-        spec's order) once: a folder that holds a run is an error unless ``replace``, for a run that stopped before
-        it saved anything."""
-        if not replace:
-            self.require_new()
+        spec's order) once (``require_new``): what a run that stopped before its first checkpoint left is replaced."""
+        self.require_new()
         if self.exists():  # everything but the lock its writer holds
             for p in self.path.iterdir():
                 if p.name != LOCK_NAME:

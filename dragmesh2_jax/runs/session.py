@@ -192,12 +192,11 @@ def _start_or_resume(given, runs, seeds, trajectory, resume, start, backend, imp
         if spec is None:
             raise DragMeshError("a new run needs its spec")
         for r in runs:
-            if r.exists() and r.epoch_checkpoints():
-                raise DragMeshError(f"{r.path}: already holds a run (use --resume, or another --out)")
+            r.require_new()
         program, heldout, tasks = programs_of(spec, trajectory)
         for r, s in zip(runs, seeds, strict=True):  # one stopped before its first checkpoint starts again
             budget = program.task.budget
-            r.start(spec.with_seed(s), program.task.engine, [tr for t in tasks for tr in t.trajectories], replace=True,
+            r.start(spec.with_seed(s), program.task.engine, [tr for t in tasks for tr in t.trajectories],
                     buffers=None if budget is None else budget.to_json())
         ts = init_runs(program, program.data(len(seeds)), seed_keys(seeds)) if start is None else stack_runs([start])
         rows, robust_rows = [[] for _ in runs], [[] for _ in runs]
