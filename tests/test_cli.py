@@ -136,8 +136,8 @@ def test_bad_input_is_one_error_line_and_status_2(argv, tmp_path, capsys):
 
 #: A valid value, not the default, for every config flag of ``train`` that is not a nested config (valid together).
 FLAG_VALUES = {
-    "schedule": {"epochs": 3, "seed": 5, "save_every": 2, "robust_every": 0, "checkpoint": "final",
-                 "dampings": (1.0, 8.0)},
+    "schedule": {"epochs": 3, "seed": 5, "save_every": 2, "robust_every": 0, "robust_episodes": 12,
+                 "checkpoint": "final", "dampings": (1.0, 8.0)},
     "task": {"alpha": 0.04, "control_dt": 1 / 30, "episode_length": 200, "history_len": 8, "aux_window": 3,
              "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0),
              "friction_range": (0.8, 1.2), "force_obs": True, "observation": "handle",
