@@ -1,37 +1,70 @@
 #!/usr/bin/env bash
-# The GPU figures of issues 10 and 22 for both MJX implementations, ready to run on a lent device (RESULTS.md §4):
-#   here:   ../shared/tools/gpu_wheels.sh warp-lang==1.18.0     # the wheels the GPU image lacks, into .whl
-#           experiments/wheel_parts.sh split .whl              # warp-lang (~149 MB) into parts under 64 MiB
-#   device: carry the parts over back-to-back calls (ignored files stay on a warm machine between calls), e.g.
-#           run(command="true", carry=[".whl/parts/<warp wheel>.part00", ...]) then
-#           run(command="bash experiments/gpu_figures.sh", carry=[".whl/<the other wheels>", ...])
-# It joins the parts (checking their hash), installs the wheels, and writes JSON rows under $OUT (or ./out/gpu).
-# Each step is its own command, so a partial run still leaves what finished.
+# The GPU figures of RESULTS.md §4 for both MJX implementations, in one call on a lent device.
+#   here:   ../shared/tools/gpu_wheels.sh warp-lang==1.18.0 tyro docstring-parser typeguard shtab tensorboardX
+#           experiments/wheel_parts.sh split .whl 48        # warp-lang (~149 MB) into parts that fit one transfer
+#           mkdir .whl/base && mv .whl/*.whl .whl/base       # the rest as one carried path (a call carries 8)
+#   device: carry the parts over back-to-back calls (ignored files stay on a warm machine between calls), the last
+#           one running  GPU_BUDGET_S=<seconds> bash experiments/gpu_figures.sh
+# Steps run most important first; a step starts only while GPU_BUDGET_S leaves it its minimum, and each is cut at
+# the deadline, so a short lease still brings back what finished. A device call returns at most 8 files: every
+# step's JSON lands in one file, $OUT/rows.json ({step: rows}), rewritten after each step; steps.log says what ran.
 set -uo pipefail
 out="${OUT:-out/gpu}"
+budget="${GPU_BUDGET_S:-540}"
 mkdir -p "$out"
+export PYTHONUNBUFFERED=1
 if [ -d .whl ]; then
   bash experiments/wheel_parts.sh join .whl || exit 2
-  python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site .whl/*.whl
+  python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site \
+    $(find .whl -type f -name '*.whl')
   export PYTHONPATH=/tmp/site:$PWD
 fi
-dm() { python3 -m dragmesh2_jax.cli "$@"; }
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv > "$out/gpu.csv" 2>&1
-# physics throughput of the full hand task, both implementations (target: >= 1e6 physics steps/s at 4-8k worlds),
-# with each engine's contact slots and constraint rows per world
-dm bench env --backend mjx --impl jax,warp --num-envs 1024,4096,8192 --steps 50 --json > "$out/bench_env_mjx.json"
-# PICA training at 1024 and 4096 envs; a seed-vmapped column of 3 runs; the paper's per-object budget
-# (150 x 64 x 32) at 64 envs
-for impl in jax warp; do
-  dm bench train --backend mjx --impl "$impl" --num-envs 64,1024,4096 --runs 1,3 --json \
-    > "$out/bench_train_mjx_$impl.json"
-done
-# a second object of the same structure (on MJX other meshes are other static fields: does it recompile?)
-dm objects synth --category door_cabinet --count 2 --seed 0 --out /tmp/doors > /dev/null
-dm bench train --backend mjx --object /tmp/doors/door_cabinet_0000,/tmp/doors/door_cabinet_0001 --num-envs 64 \
-  --json > "$out/bench_train_two_objects.json"
-# wall time of the paper's budget end to end, compile included (target: < 60 s)
-for impl in jax warp; do
-  /usr/bin/time -v python3 -m dragmesh2_jax.cli train --method pica --out "/tmp/budget_$impl" --epochs 150 \
-    --num-envs 64 --backend mjx --impl "$impl" --quiet > "$out/budget_train_$impl.txt" 2>&1
-done
+rows=/tmp/gpu_rows
+mkdir -p "$rows"
+{ nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv
+  python3 -m pip list 2>/dev/null | grep -iE '^(jax|jaxlib|flax|optax|orbax|numpy|scipy|mujoco|warp)'
+} > "$out/gpu.txt" 2>&1
+
+collect() {
+  python3 - "$rows" "$out/rows.json" <<'EOF'
+import json, pathlib, sys
+rows = {}
+for f in sorted(pathlib.Path(sys.argv[1]).glob("*.json")):
+    text = f.read_text().strip()
+    try:
+        rows[f.stem] = json.loads(text) if text else None
+    except json.JSONDecodeError:
+        rows[f.stem] = text
+tmp = pathlib.Path(sys.argv[2] + ".tmp")
+tmp.write_text(json.dumps(rows, indent=1))
+tmp.replace(sys.argv[2])
+EOF
+}
+
+n=0
+step() {  # step NAME MIN_S ARGS...: one `dragmesh2` command, its stdout the step's rows
+  local name=$1 need=$2; shift 2
+  local left=$((budget - SECONDS)) t0=$SECONDS
+  n=$((n + 1))
+  if [ "$left" -lt "$need" ]; then echo "$name: skipped ($left s left)" >> "$out/steps.log"; return; fi
+  timeout "$left" python3 -m dragmesh2_jax.cli "$@" > "$rows/$(printf %02d $n)_$name.json" 2>> "$out/stderr.log"
+  echo "$name: rc=$? $((SECONDS - t0)) s" >> "$out/steps.log"
+  collect
+}
+
+mjx=(--backend mjx --json)
+# physics throughput of the full hand task at 4096 worlds, both implementations (target: >= 1e6 physics steps/s)
+step env_warp_4096 60 bench env "${mjx[@]}" --impl warp --num-envs 4096 --steps 50
+step env_jax_4096 90 bench env "${mjx[@]}" --impl jax --num-envs 4096 --steps 50
+# PICA training at 4096 envs
+step train_warp_4096 90 bench train "${mjx[@]}" --impl warp --num-envs 4096
+step train_jax_4096 120 bench train "${mjx[@]}" --impl jax --num-envs 4096
+# the scaling of the physics in worlds (Warp's kernels are compiled by now)
+step env_warp_sizes 40 bench env "${mjx[@]}" --impl warp --num-envs 1024,8192 --steps 50
+# the paper's per-object budget (150 epochs x 64 envs x 32 steps), compile included: budget_s
+step train_jax_64 90 bench train "${mjx[@]}" --impl jax --num-envs 64
+step train_warp_64 60 bench train "${mjx[@]}" --impl warp --num-envs 64
+# a seed-vmapped column of 3 runs
+step train_warp_1024_runs 90 bench train "${mjx[@]}" --impl warp --num-envs 1024 --runs 1,3
+step env_jax_sizes 150 bench env "${mjx[@]}" --impl jax --num-envs 1024,8192 --steps 50
+echo "done in $SECONDS s" >> "$out/steps.log"
