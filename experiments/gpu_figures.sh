@@ -1,10 +1,15 @@
 #!/usr/bin/env bash
 # The GPU figures of RESULTS.md §4 for both MJX implementations, in one call on a lent device.
-#   here:   ../shared/tools/gpu_wheels.sh warp-lang==1.18.0 tyro docstring-parser typeguard shtab tensorboardX
+# The device's image has JAX with CUDA, flax, optax, orbax, scipy and numpy; the rest travels as Python 3.12 wheels:
+#   here:   pip download --no-deps --only-binary=:all: --python-version 3.12 --implementation cp \
+#             --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 --platform manylinux_2_17_x86_64 \
+#             -d .whl mujoco==3.17.0 mujoco-mjx==3.17.0 warp-lang==1.18.0 glfw pyopengl trimesh coacd defusedxml \
+#             tyro docstring-parser typeguard shtab tensorboardX
 #           experiments/wheel_parts.sh split .whl 48        # warp-lang (~149 MB) into parts that fit one transfer
 #           mkdir .whl/base && mv .whl/*.whl .whl/base       # the rest as one carried path (a call carries 8)
-#   device: carry the parts over back-to-back calls (ignored files stay on a warm machine between calls), the last
-#           one running  GPU_BUDGET_S=<seconds> bash experiments/gpu_figures.sh
+#   device: one call carrying .whl/base, one per part (ignored files stay on a warm machine between calls: 30 s), the
+#           last (the part's .sha256 beside it) running  GPU_BUDGET_S=<seconds> bash experiments/gpu_figures.sh
+#   (2026-12-04: the project's tree is 13 MiB of a call's 64 MiB, so a part of 48 MiB fits)
 # Steps run most important first; a step starts only while GPU_BUDGET_S leaves it its minimum, and each is cut at
 # the deadline, so a short lease still brings back what finished. A device call returns at most 8 files: every
 # step's JSON lands in one file, $OUT/rows.json ({step: rows}), rewritten after each step; steps.log says what ran.
