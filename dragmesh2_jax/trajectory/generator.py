@@ -20,6 +20,7 @@ regression). When no passing placement grips, the first that passes is kept and 
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -36,6 +37,8 @@ from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, Scene, SceneConfig, build
 from dragmesh2_jax.trajectory import grasp
 from dragmesh2_jax.trajectory.schema import Frame, Trajectory
 
+#: Every 2 pi shift of three Euler angles (-1, 0, +1 turns each), in the order the nearest one is picked by.
+EULER_SHIFTS = 2 * np.pi * np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=np.float64)
 GENERATOR_VERSION = "1.1"  # 1.1: the grip at the drag start picks among the passing placements
 
 
@@ -103,12 +106,11 @@ def continuous_euler(R: np.ndarray, prev: np.ndarray | None, limit: float = np.p
     wrist limits (+-``limit``) and take the one nearest ``prev``, so the wrist PD target never jumps."""
     a = Rotation.from_matrix(R).as_euler("XYZ")
     b = np.array([a[0] + np.pi, np.pi - a[1], a[2] + np.pi])
-    shifts = np.array([-2 * np.pi, 0.0, 2 * np.pi])
-    cands = [np.array([x + i, y + j, z + k]) for c in (a, b) for i in shifts for j in shifts for k in shifts
-             for x, y, z in [c]]
-    inside = [c for c in cands if np.all(np.abs(c) <= limit + 1e-9)] or cands
+    cands = (np.stack([a, b])[:, None, :] + EULER_SHIFTS).reshape(-1, 3)
+    inside = np.all(np.abs(cands) <= limit + 1e-9, axis=1)
+    pool = cands[inside] if inside.any() else cands
     ref = prev if prev is not None else np.zeros(3)
-    return min(inside, key=lambda c: float(np.abs(c - ref).sum()))
+    return pool[np.argmin(np.abs(pool - ref).sum(axis=1))]
 
 
 def drag_extent(scene: Scene, params: GeneratorParams) -> float:
@@ -187,13 +189,11 @@ def _object_joint_positions(scene: Scene, d: mujoco.MjData) -> tuple[float, ...]
     return tuple(out)
 
 
-def _penetration(scene: Scene, d: mujoco.MjData) -> float:
-    hand = set(scene.ids.hand_geoms.tolist())
-    worst = 0.0
-    for c in d.contact[: d.ncon]:
-        if (c.geom1 in hand) != (c.geom2 in hand):
-            worst = max(worst, -float(c.dist))
-    return worst
+def _penetration(is_hand: np.ndarray, d: mujoco.MjData) -> float:
+    """The deepest hand-object penetration (m) among ``d``'s contacts; ``is_hand``: a mask over the model's geoms."""
+    c = d.contact  # the active contacts' fields as arrays
+    between = is_hand[c.geom1] != is_hand[c.geom2]
+    return float(-np.min(c.dist[between], initial=0.0))
 
 
 def execute(scene: Scene, plan: Plan, params: GeneratorParams, damping_scale: float = 1.0):
@@ -211,13 +211,15 @@ def execute(scene: Scene, plan: Plan, params: GeneratorParams, damping_scale: fl
     mujoco.mj_forward(m, d)
     for _ in range(params.settle_frames * params.substeps):
         mujoco.mj_step(m, d)
+    is_hand = np.zeros(m.ngeom, dtype=bool)
+    is_hand[ids.hand_geoms] = True
     frames, pen, limit_excess, palm_dist = [], 0.0, 0.0, []
     wrist = ids.wrist_body
     for phase, step, target in zip(plan.phases, plan.steps, plan.targets, strict=True):
         d.ctrl[ids.hand_actuators] = np.clip(target, lo, hi)
         for _ in range(params.substeps):
             mujoco.mj_step(m, d)
-            pen = max(pen, _penetration(scene, d))
+            pen = max(pen, _penetration(is_hand, d))
         if not np.all(np.isfinite(d.qpos)):
             raise DragMeshError(f"{scene.obj.folder}: physics went non-finite while executing the plan")
         hq = d.qpos[ids.hand_qpos].copy()

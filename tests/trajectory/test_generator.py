@@ -1,11 +1,12 @@
 """Geometry-guided trajectories open every real object and every procedural category through contact."""
 
+import mujoco
 import numpy as np
 import pytest
 
 from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
-from dragmesh2_jax.trajectory.generator import GeneratorParams, continuous_euler, generate
+from dragmesh2_jax.trajectory.generator import GeneratorParams, _penetration, continuous_euler, generate
 from dragmesh2_jax.trajectory.schema import PHASES
 from tests.conftest import REAL_OBJECTS
 
@@ -79,6 +80,19 @@ def test_euler_branch_is_continuous_and_within_limits():
     e = continuous_euler(matrix_from_wrist_euler([1.6, 0.25, 3.1]), prev)
     np.testing.assert_allclose(matrix_from_wrist_euler(e), matrix_from_wrist_euler([1.6, 0.25, 3.1]), atol=1e-9)
     assert np.all(np.abs(e) <= np.pi + 1e-9)
+
+
+def test_penetration_is_the_deepest_hand_object_contact_and_ignores_the_rest():
+    """A floor (an object geom) with two balls sunk into it, 5 cm and 8 cm: with the shallower ball a hand geom the
+    plan's penetration is 5 cm (the deeper contact is object-object); with no hand geom it is 0."""
+    m = mujoco.MjModel.from_xml_string("""<mujoco><worldbody><geom type="plane" size="1 1 .1"/>
+        <body pos="0 0 .05"><freejoint/><geom type="sphere" size=".1"/></body>
+        <body pos=".5 0 .02"><freejoint/><geom type="sphere" size=".1"/></body></worldbody></mujoco>""")
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    assert d.ncon == 2
+    assert _penetration(np.array([False, True, False]), d) == pytest.approx(0.05)
+    assert _penetration(np.zeros(3, dtype=bool), d) == 0.0
 
 
 def test_a_fingertip_grasp_is_passed_over_for_one_that_grips_the_handle():
