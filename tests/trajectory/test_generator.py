@@ -6,6 +6,7 @@ import pytest
 
 from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.trajectory import generator
 from dragmesh2_jax.trajectory.generator import GeneratorParams, _penetration, continuous_euler, generate
 from dragmesh2_jax.trajectory.schema import PHASES
 from tests.conftest import REAL_OBJECTS
@@ -93,6 +94,26 @@ def test_penetration_is_the_deepest_hand_object_contact_and_ignores_the_rest():
     assert d.ncon == 2
     assert _penetration(np.array([False, True, False]), d) == pytest.approx(0.05)
     assert _penetration(np.zeros(3, dtype=bool), d) == 0.0
+
+
+def test_a_trajectory_is_generated_once_and_read_back_exactly(tmp_path, monkeypatch):
+    """The second ``generate`` of an object reads the first's trajectory from the cache, equal to the last float; other
+    parameters or a damaged cache file generate again."""
+    monkeypatch.setenv("DRAGMESH2_CACHE", str(tmp_path))
+    obj = load_gapartnet(procedural.default_object())
+    first = generate(obj)
+    (cached,) = (tmp_path / "trajectories").glob("*.json")
+    real = generator._generate
+    monkeypatch.setattr(generator, "_generate", lambda *a: pytest.fail("generated again"))
+    again = generate(obj)
+    assert again.to_json() == first.to_json()
+    assert all(np.array_equal(a.hand_q, b.hand_q) for a, b in zip(again.frames, first.frames, strict=True))
+    calls = []
+    monkeypatch.setattr(generator, "_generate", lambda *a: calls.append(a) or real(*a))
+    generate(obj, GeneratorParams(drag_frames=170))
+    cached.write_text("{")  # damaged: generated again and rewritten
+    assert generate(obj).to_json()["frames"] == first.to_json()["frames"] and len(calls) == 2
+    assert len(list((tmp_path / "trajectories").glob("*.json"))) == 2
 
 
 def test_a_fingertip_grasp_is_passed_over_for_one_that_grips_the_handle():
