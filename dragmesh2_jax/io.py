@@ -76,6 +76,15 @@ def hash_files(paths: Iterable[str | os.PathLike], extra: str = "") -> str:
     return h.hexdigest()[:16]
 
 
+def object_hash(folder: str | os.PathLike) -> str:
+    """The content hash of an object folder: every file under it, in path order."""
+    root = Path(folder)
+    files = sorted(p for p in root.rglob("*") if p.is_file())
+    if not files:
+        raise DragMeshError(f"{root}: no object files to hash")
+    return hash_files(files, extra="\n".join(str(p.relative_to(root)) for p in files))
+
+
 def cache_dir() -> Path:
     """Where derived geometry is cached: ``$DRAGMESH2_CACHE`` or ``~/.cache/dragmesh2``."""
     root = os.environ.get("DRAGMESH2_CACHE") or os.path.join(

@@ -24,7 +24,7 @@ from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import SELECTION
-from dragmesh2_jax.io import hash_files
+from dragmesh2_jax.io import object_hash
 from dragmesh2_jax.policies.methods import get_method, resolve
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
@@ -258,12 +258,3 @@ def finetune_spec(parent: RunSpec, recipe: str, checkpoint: str, epochs: int, sc
     ft = get_finetune(recipe)
     return apply_overrides(parent, {**ft.overrides, **{f"schedule.{k}": v for k, v in (schedule or {}).items()},
                                     "schedule.epochs": epochs, "finetune": recipe, "parent": str(checkpoint)})
-
-
-def object_hash(folder: str | Path) -> str:
-    """The content hash of an object folder: every file under it, in path order."""
-    root = Path(folder)
-    files = sorted(p for p in root.rglob("*") if p.is_file())
-    if not files:
-        raise DragMeshError(f"{root}: no object files to hash")
-    return hash_files(files, extra="\n".join(str(p.relative_to(root)) for p in files))

@@ -35,7 +35,7 @@ from dragmesh2_jax.assets.gapartnet import GAPartNetObject
 from dragmesh2_jax.assets.target import opening_direction
 from dragmesh2_jax.assets.urdf import axis_angle_matrix
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.io import cache_dir, hash_files
+from dragmesh2_jax.io import cache_dir, hash_files, object_hash
 from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, Scene, SceneConfig, build_scene
 from dragmesh2_jax.trajectory import grasp
 from dragmesh2_jax.trajectory.schema import Frame, Trajectory, read_trajectory, write_trajectory
@@ -310,28 +310,26 @@ def _target_index(scene: Scene) -> int:
 def cached_path(obj: GAPartNetObject, scene: Scene, params: GeneratorParams) -> Path:
     """Where ``generate`` keeps its trajectory for this object, scene and parameters: keyed by the object folder's
     files, the scene's model, the parameters, the generator's version and MuJoCo's."""
-    files = sorted(p for p in Path(obj.folder).rglob("*") if p.is_file())
-    key = hash_files(files, extra="\0".join([GENERATOR_VERSION, mujoco.__version__, repr(params), repr(scene.config),
-                                              scene.xml]))
+    key = hash_files([], extra="\0".join([object_hash(obj.folder), GENERATOR_VERSION, mujoco.__version__, repr(params),
+                                           repr(scene.config), scene.xml]))
     return cache_dir() / "trajectories" / f"{key}.json"
 
 
 def generate(obj: GAPartNetObject, params: GeneratorParams = GeneratorParams(), scene_config: SceneConfig | None = None,
-             scene: Scene | None = None, use_cache: bool = True) -> Trajectory:
+             scene: Scene | None = None) -> Trajectory:
     """Plan and execute a trajectory for ``obj``; returns it with a header holding the quality gate. Deterministic:
     the palm placements are tried in a fixed order, so there is no seed, and the result is cached on disk
     (``cached_path``; floats round-trip exactly, so a cached trajectory is the generated one)."""
     scene = scene or build_scene(obj, scene_config or SceneConfig())
-    cache = cached_path(obj, scene, params) if use_cache else None
-    if cache is not None and cache.is_file():
+    cache = cached_path(obj, scene, params)
+    if cache.is_file():
         try:
             return read_trajectory(cache)
         except DragMeshError:
             cache.unlink(missing_ok=True)
     traj = _generate(obj, params, scene)
-    if cache is not None:
-        with contextlib.suppress(DragMeshError):  # an unwritable cache only costs the next call the generation
-            write_trajectory(traj, cache)
+    with contextlib.suppress(DragMeshError):  # an unwritable cache only costs the next call the generation
+        write_trajectory(traj, cache)
     return traj
 
 

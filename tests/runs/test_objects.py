@@ -12,10 +12,11 @@ import pytest
 
 from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.evaluation.protocol import SELECTION
+from dragmesh2_jax.io import object_hash
 from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
-from dragmesh2_jax.runs.spec import method_spec, object_hash
+from dragmesh2_jax.runs.spec import method_spec
 from dragmesh2_jax.task.mix import ObjectMix
 from tests.conftest import TINY_PPO, TINY_SIZES
 
