@@ -33,7 +33,7 @@ from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
-from dragmesh2_jax.io import LOCK_NAME, atomic_write_json, atomic_write_text, folder_lock
+from dragmesh2_jax.io import atomic_write_json, atomic_write_text, folder_lock
 from dragmesh2_jax.ppo.checkpoint import ACTOR_SUFFIX, is_checkpoint
 from dragmesh2_jax.runs.spec import RECORD_FORMAT, RunSpec, Schedule
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory, write_trajectory
@@ -44,6 +44,10 @@ EPOCH_PREFIX = "epoch_"
 ACTOR_NAME = "actor" + ACTOR_SUFFIX
 #: Runs that ship with the package, by the name a checkpoint flag takes.
 PACKAGED = {"generalist": Path(__file__).resolve().parent.parent / "data" / "generalist"}
+#: What a run writes into its folder (the layout above); a new run replaces these and nothing else, so what the
+#: command built into the folder before the run started (the generalist's objects) stays.
+RUN_PRODUCTS = ("run.json", "trajectory.json", "trajectories", "log.jsonl", "log.csv", "robust.jsonl", "robust.csv",
+                "tb", "checkpoints", "evaluations", ACTOR_NAME)
 
 
 def epoch_name(epoch: int) -> str:
@@ -93,12 +97,15 @@ class RunDir:
     def start(self, spec: RunSpec, backend: str, trajectory: Trajectory | list[Trajectory],
               buffers: dict | None = None) -> None:
         """Write the record and the trajectory of a new run (a run over several objects: one per object, in the
-        spec's order) once (``require_new``): what a run that stopped before its first checkpoint left is replaced."""
+        spec's order) once (``require_new``): what a run that stopped before its first checkpoint left is replaced
+        (``RUN_PRODUCTS``; the rest of the folder stays)."""
         self.require_new()
-        if self.exists():  # everything but the lock its writer holds
-            for p in self.path.iterdir():
-                if p.name != LOCK_NAME:
-                    shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+        if self.exists():
+            for p in (self.path / name for name in RUN_PRODUCTS):
+                if p.is_dir() and not p.is_symlink():
+                    shutil.rmtree(p)
+                elif p.exists() or p.is_symlink():
+                    p.unlink()
         self.path.mkdir(parents=True, exist_ok=True)
         trajectories = trajectory if isinstance(trajectory, list) else [trajectory]
         write_trajectory(trajectories[0], self.trajectory_path)

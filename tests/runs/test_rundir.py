@@ -39,6 +39,19 @@ def test_the_layout(run):
         start_or_resume(tiny_spec(), [run], resume=False, progress=False)
 
 
+def test_a_run_started_again_replaces_its_own_files_and_keeps_what_the_command_built_beside_them(run, tmp_path):
+    """A run that stopped before its first checkpoint starts again; what was built into its folder before the run
+    started (the generalist's objects) stays."""
+    folder = tmp_path / "again"
+    shutil.copytree(run.path, folder, ignore=shutil.ignore_patterns("checkpoints"))
+    (folder / "objects").mkdir()
+    (folder / "objects" / "part.obj").write_text("v 0 0 0\n")
+    again = RunDir(folder)
+    again.start(run.spec(), run.backend, run.trajectory())
+    assert (folder / "objects" / "part.obj").read_text() == "v 0 0 0\n"
+    assert again.exists() and not again.log_rows() and not again.tensorboard.exists()
+
+
 def test_evaluations_are_kept_by_checkpoint_and_protocol(run):
     tiny = dataclasses.replace(PAPER, episodes=2, modes=("det",))
     x8 = dataclasses.replace(tiny, dampings=(4.0, 8.0))
