@@ -6,7 +6,6 @@ Data flow, one package per stage:
 """
 
 import ctypes.util
-import importlib.util
 import os
 from pathlib import Path
 
@@ -26,11 +25,6 @@ def _choose_gl() -> None:
 
 
 _choose_gl()
-
-if importlib.util.find_spec("warp") is not None:  # MJX's Warp implementation (the ``warp`` extra)
-    import warp
-
-    warp.config.log_level = warp.LOG_WARNING  # before it starts: its start-up lines go to stdout, with a command's JSON
 
 __all__ = ["DragMeshError"]
 __version__ = "0.1.0"

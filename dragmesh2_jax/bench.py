@@ -15,7 +15,7 @@ import numpy as np
 
 from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.assets.procedural import default_object
-from dragmesh2_jax.physics.mjx_backend import require_impl
+from dragmesh2_jax.physics.engines import require_impl
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.ppo.train import TrainProgram, epoch_jit, epoch_runs, init_jit, init_runs, run_mesh, seed_keys
 from dragmesh2_jax.runs.build import load_task, mix_of, program_of

@@ -12,7 +12,7 @@ import sys
 from dragmesh2_jax.cli.parser import build_parser
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import os_error_line
-from dragmesh2_jax.physics.mjx_backend import avoid_lapack_deadlock
+from dragmesh2_jax.physics.engines import avoid_lapack_deadlock
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -15,24 +15,25 @@ from __future__ import annotations
 import contextlib
 import importlib.util
 import io
-import os
-import sys
 
 import jax
 import jax.numpy as jnp
-import jaxlib
 import mujoco
 from flax import struct
-from jax._src import xla_bridge
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, penetration
 from dragmesh2_jax.physics.batch import map_batched, shared
 from dragmesh2_jax.physics.contacts import ContactBudget, overflow_message
+from dragmesh2_jax.physics.engines import avoid_lapack_deadlock, require_impl
 from dragmesh2_jax.scene import CONTACT_SLICE, FORCE_SLICE, Scene
 
-_IMPORT_NOTES = io.StringIO()  # mujoco.mjx prints "Failed to import warp" when warp is absent: shown only for warp
-with contextlib.redirect_stdout(_IMPORT_NOTES):
+if importlib.util.find_spec("warp") is not None:  # MJX's Warp implementation (the ``warp`` extra)
+    import warp
+
+    warp.config.log_level = warp.LOG_WARNING  # before it starts: its start-up lines go to stdout, with a command's JSON
+
+with contextlib.redirect_stdout(io.StringIO()):  # mujoco.mjx prints "Failed to import warp" when warp is absent
     from mujoco import mjx
     from mujoco.mjx._src.collision_driver import make_condim
 
@@ -65,56 +66,6 @@ def _bank(starts: list[mjx.Data] | mjx.Data, sized: mjx.Data) -> mjx.Data:
     own = jax.tree_util.tree_leaves(starts)
     return jax.tree_util.tree_unflatten(treedef, [y if shared(path) else x
                                                   for (path, y), x in zip(template, own, strict=True)])
-
-
-def avoid_lapack_deadlock() -> None:
-    """Start JAX's CPU client with a one-thread intra-op pool when jaxlib < 0.11.
-
-    jaxlib 0.10's CPU LAPACK kernels split a large batched Cholesky (MJX's Newton solver and implicitfast
-    integrator, from about 5 worlds of the hand task) into chunks on XLA's intra-op pool and wait for them on a
-    pool thread; two such calls at once on a 2-thread pool wait for each other forever (jax-ml/jax#36927, fixed
-    in 0.11; RESULTS.md §1). The pool is sized from the CPU affinity when the client starts, so the client is
-    started with one CPU and the affinity restored: the C engine's threads and everything else keep every core.
-    It must run before anything starts JAX's backends (``MjxBackend`` and the CLI call it); when too late, it
-    warns once."""
-    version = tuple(int(x) for x in jaxlib.__version__.split(".")[:2])
-    if version >= (0, 11) or not hasattr(os, "sched_setaffinity") or _accelerator_plugin():
-        return
-    cpus = os.sched_getaffinity(0)
-    if len(cpus) == 1 or _DONE:
-        return
-    _DONE.append(True)
-    if xla_bridge.backends_are_initialized():
-        if jax.default_backend() == "cpu":
-            print(f"warning: MJX on a CPU with jaxlib {jaxlib.__version__} can deadlock from about 5 worlds when JAX "
-                  "started before the MJX backend was built (RESULTS.md §1); build it first, or run under "
-                  "`taskset -c 0`", file=sys.stderr)
-        return
-    os.sched_setaffinity(0, {min(cpus)})
-    try:
-        jax.devices()
-    finally:
-        os.sched_setaffinity(0, cpus)
-
-
-_DONE: list[bool] = []  # pinned (or warned) once per process
-
-
-def _accelerator_plugin() -> bool:
-    """Whether JAX may start an accelerator client here (a CUDA/ROCm plugin is installed and the platforms are
-    not restricted to the CPU): then the pin is not ours to make (an accelerator's host threads need the cores)."""
-    platforms = os.environ.get("JAX_PLATFORMS") or jax.config.jax_platforms or ""
-    if platforms.strip().lower() == "cpu":
-        return False
-    return any(importlib.util.find_spec(m) is not None for m in ("jax_cuda12_plugin", "jax_cuda13_plugin",
-                                                                "jax_rocm60_plugin", "jax_rocm7_plugin"))
-
-
-def require_impl(impl: str) -> None:
-    """One error line when MJX's ``impl`` cannot run here (Warp without its extra)."""
-    if impl == "warp" and importlib.util.find_spec("warp") is None:
-        raise DragMeshError("MJX's Warp implementation needs warp-lang (pip install -e \".[warp]\"); "
-                            f"mujoco.mjx said: {_IMPORT_NOTES.getvalue().strip() or 'nothing'}")
 
 
 class MjxBackend:

@@ -107,7 +107,7 @@ _NEXT_HOST = itertools.count()
 _LOCK = threading.Lock()  # shards of a sharded program may call in at once; the models are written per call
 
 #: The process's CPUs at import: the callback may run on an XLA pool thread started on fewer (see
-#: ``mjx_backend.avoid_lapack_deadlock``), and the workers must not inherit that.
+#: ``engines.avoid_lapack_deadlock``), and the workers must not inherit that.
 _CPUS = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
 #: Chunks per worker thread a mixed batch is cut into, so that objects of unequal cost balance across the threads.
 CHUNKS_PER_THREAD = 4

@@ -48,10 +48,9 @@ from flax import struct
 
 from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.physics import contacts
+from dragmesh2_jax.physics import contacts, engines
 from dragmesh2_jax.physics.base import Backend, Kinematics, Start, WorldFields
 from dragmesh2_jax.physics.contacts import ContactBudget
-from dragmesh2_jax.physics.mjx_backend import MjxBackend, candidates
 from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
@@ -169,15 +168,16 @@ def contact_budget(scene: Scene, traj: Trajectory, config: TaskConfig, starts: l
     margin (``config.contacts`` overrides the contact slots)."""
     probed = contacts.probe(scene, starts[:contacts.PROBE_STARTS], traj.drag_targets(config.control_dt),
                             substeps_of(scene, config), config.settle_substeps)
-    return ContactBudget.of(*probed, candidates(scene.model), contacts.limited_dofs(scene), config.contacts)
+    return ContactBudget.of(*probed, engines.mjx().candidates(scene.model), contacts.limited_dofs(scene),
+                            config.contacts)
 
 
 def make_backend(scene: Scene, config: TaskConfig, starts: list[Start], traj: Trajectory) -> Backend:
     """The task's physics engine (MJX's buffers from :func:`contact_budget`)."""
     substeps = substeps_of(scene, config)
     if config.resolved_backend() == "mjx":
-        return MjxBackend(scene, substeps, starts, contact_budget(scene, traj, config, starts), config.settle_substeps,
-                          impl=config.impl)
+        budget = contact_budget(scene, traj, config, starts)
+        return engines.mjx().MjxBackend(scene, substeps, starts, budget, config.settle_substeps, impl=config.impl)
     return MujocoBackend(scene, substeps, starts, config.settle_substeps, nthread=config.nthread)
 
 

@@ -151,7 +151,7 @@ def test_seeds_as_one_program_equal_separate_runs():
 
 
 #: A fresh process that starts as ``dragmesh2`` does for a command on MJX (the CLI pins JAX's CPU pool before anything
-#: starts JAX: ``mjx_backend.avoid_lapack_deadlock``), then runs two batched Cholesky factorisations in one program,
+#: starts JAX: ``engines.avoid_lapack_deadlock``), then runs two batched Cholesky factorisations in one program,
 #: as MJX-JAX's Newton solver and implicitfast integrator do from about 5 worlds. jaxlib 0.10's CPU LAPACK kernels
 #: deadlock on them on a 2-thread pool: without the pin (the same process on ``--backend mujoco``) it hangs.
 LAPACK_PROBE = """
