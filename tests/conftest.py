@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
-import math
 import os
 import shutil
 import subprocess
@@ -63,30 +62,14 @@ def in_ci() -> bool:
 
 
 def _enable_jax_cache() -> None:
-    """A persistent compilation cache, shared by the workers (and the runs after): the same programs (network inits,
-    resets, evaluation rollouts) compile again in every test that builds its own program and in every worker, so CI
-    too starts with it, empty (the suite on CPU-2: 1,140 CPU-s instead of 1,435; RESULTS.md §4). MJX's executables
-    are never written to it (:func:`pytest_runtest_protocol`)."""
+    """A persistent compilation cache for local reruns. Not in CI, where the clone starts with an empty cache (so it
+    only adds writes) and where a worker once crashed inside jaxlib while writing an MJX executable to it."""
+    if in_ci():
+        return
     cache = os.environ.get("JAX_COMPILATION_CACHE_DIR", str(ROOT / ".cache" / "jax"))
     jax.config.update("jax_compilation_cache_dir", cache)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_CACHED_COMPILE_S)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
-
-
-MIN_CACHED_COMPILE_S = 0.5  # quicker compiles are not worth a file
-
-
-@pytest.hookimpl(wrapper=True)
-def pytest_runtest_protocol(item, nextitem):
-    """A test marked ``mjx`` (and the session fixtures it sets up) writes nothing to the persistent cache: a worker
-    once crashed inside jaxlib writing an MJX executable, and no other process compiles the same MJX program."""
-    if item.get_closest_marker("mjx") is None:
-        return (yield)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", math.inf)
-    try:
-        return (yield)
-    finally:
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_CACHED_COMPILE_S)
 
 
 _enable_jax_cache()

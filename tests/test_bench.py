@@ -33,7 +33,6 @@ def test_bench_env_mixes_objects_in_one_batch(capsys):
     assert row["objects"] == 2 and row["num_envs"] == 4 and row["physics_steps_per_s"] > 0
 
 
-@pytest.mark.mjx
 @pytest.mark.xdist_group("warp")  # beside the other Warp tests: Warp compiles its kernels once per process
 def test_bench_env_puts_the_engines_side_by_side(capsys):
     """The C engine and MJX at the same number of worlds, each with the contact slots and constraint rows one world

@@ -33,7 +33,6 @@ def test_the_probe_counts_the_grasp_and_the_budget_adds_its_margin(drawer_task):
         ContactBudget.of(n_con, n_efc, candidates=238, limited_dofs=52, contacts=0)
 
 
-@pytest.mark.mjx
 def test_mjx_jax_keeps_the_budget_and_a_full_world_is_an_overflow(drawer_task):
     """The packaged drawer on MJX-JAX: 238 candidate contacts per world, the budget's slots kept
     (``max_contact_points``); with as many slots as the settled grasp has contacts the world is full (an overflow),
@@ -53,7 +52,6 @@ def test_mjx_jax_keeps_the_budget_and_a_full_world_is_an_overflow(drawer_task):
         MjxBackend(t.scene, t.substeps, starts, budget(n_grasp - 1))
 
 
-@pytest.mark.mjx
 def test_an_overflow_is_one_clear_error(drawer_task):
     task = PullTask(drawer_task.scene, drawer_task.traj, TaskConfig(backend="mjx", contacts=40))
     task.check_overflow(0, "evaluation")

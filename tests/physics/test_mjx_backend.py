@@ -31,7 +31,7 @@ from tests.conftest import REAL_OBJECTS, require_warp, tiny_program, tiny_spec
 from tests.task.conftest import PARITY_STEPS, assert_bounded_divergence, assert_loads_agree, expert_trace
 from tests.task.test_contact_load import forces
 
-pytestmark = [pytest.mark.xdist_group("warp"), pytest.mark.long, pytest.mark.mjx]
+pytestmark = [pytest.mark.xdist_group("warp"), pytest.mark.long]
 OBJ = str(default_object())
 #: The shared object whose expert drag Warp runs to each episode's end (the others: PARITY_STEPS), the door whose
 #: verdicts differ most across dampings.

@@ -133,7 +133,6 @@ def test_bad_ppo_config():
         PPOConfig(num_envs=3, rollout_len=3, num_minibatches=2)
 
 
-@pytest.mark.mjx
 def test_policy_trained_on_one_backend_loads_on_the_other(tmp_path):
     run = RunDir(tmp_path / "run")
     _, ts, _ = start_or_resume(tiny_spec(schedule={"robust_every": 0}), [run], resume=False, progress=False)

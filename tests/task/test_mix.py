@@ -40,7 +40,6 @@ def test_a_batch_mixes_a_drawer_and_a_door_on_the_c_engine():
     assert np.all(q[objects == 1] >= tasks[1].traj.q_min - 1e-3) and np.all(q[objects == 0] >= -1e-3)
 
 
-@pytest.mark.mjx
 def test_on_mjx_only_objects_of_one_structure_share_a_batch():
     """MJX stacks the models: one object at two nominal dampings mixes; a drawer and a door (other meshes) is the
     documented limit, one error line (nothing compiles here)."""
