@@ -4,7 +4,7 @@ for every world, and vmap passes those leaves through unbatched (``mujoco.mjx.wa
 indexes, stacks or merges along a batch axis outside vmap goes through :func:`map_batched`.
 
 A state holds MJX-Warp's data only once its module is imported, so the names are read from that module where it is
-loaded and never import it (``physics/engines.py`` says why MJX is imported only when chosen)."""
+loaded and never import it (``task/env.py`` says why MJX is imported only when chosen)."""
 
 from __future__ import annotations
 

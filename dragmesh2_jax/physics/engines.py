@@ -1,31 +1,18 @@
-"""What the physics engines need from the process before and beside them, apart from the engines themselves.
-
-MJX is imported only when a program chooses it (:func:`mjx`): importing ``mujoco.mjx`` defines MuJoCo Warp's kernels
-when warp-lang is installed, about 3 s of every process (RESULTS.md §4) that steps only the C engine, as the CLI's
-commands, the tests' subprocesses and CPU training do.
-"""
+"""What the physics engines need from the process before and beside them, apart from the engines themselves (so that
+the CLI and the benchmarks can check and prepare for MJX without importing it: ``task/env.py`` imports MJX only when a
+task chooses it)."""
 
 from __future__ import annotations
 
-import importlib
 import importlib.util
 import os
 import sys
-from types import ModuleType
 
 import jax
 import jaxlib
 from jax._src import xla_bridge
 
 from dragmesh2_jax.errors import DragMeshError
-
-#: The MJX backend's module, imported by :func:`mjx`.
-MJX_MODULE = "dragmesh2_jax.physics.mjx_backend"
-
-
-def mjx() -> ModuleType:
-    """The MJX backend's module (``physics/mjx_backend.py``), imported on first use (the module docstring says why)."""
-    return importlib.import_module(MJX_MODULE)
 
 
 def avoid_lapack_deadlock() -> None:

@@ -40,6 +40,8 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import importlib
+from types import ModuleType
 
 import jax
 import jax.numpy as jnp
@@ -48,7 +50,7 @@ from flax import struct
 
 from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.physics import contacts, engines
+from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.base import Backend, Kinematics, Start, WorldFields
 from dragmesh2_jax.physics.contacts import ContactBudget
 from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
@@ -163,12 +165,22 @@ def substeps_of(scene: Scene, config: TaskConfig) -> int:
     return int(round(substeps))
 
 
+MJX_BACKEND = "dragmesh2_jax.physics.mjx_backend"
+
+
+def _mjx() -> ModuleType:
+    """The MJX backend (``physics/mjx_backend.py``), imported when a task chooses it: importing ``mujoco.mjx`` defines
+    MuJoCo Warp's kernels when warp-lang is installed, 2.2 s of every process that steps only the C engine (a CLI
+    command, CPU training; RESULTS.md §4)."""
+    return importlib.import_module(MJX_BACKEND)
+
+
 def contact_budget(scene: Scene, traj: Trajectory, config: TaskConfig, starts: list[Start]) -> ContactBudget:
     """MJX's buffers for the task: the expert drag probed on the C engine from the first starts, with the budget's
     margin (``config.contacts`` overrides the contact slots)."""
     probed = contacts.probe(scene, starts[:contacts.PROBE_STARTS], traj.drag_targets(config.control_dt),
                             substeps_of(scene, config), config.settle_substeps)
-    return ContactBudget.of(*probed, engines.mjx().candidates(scene.model), contacts.limited_dofs(scene),
+    return ContactBudget.of(*probed, _mjx().candidates(scene.model), contacts.limited_dofs(scene),
                             config.contacts)
 
 
@@ -177,7 +189,7 @@ def make_backend(scene: Scene, config: TaskConfig, starts: list[Start], traj: Tr
     substeps = substeps_of(scene, config)
     if config.resolved_backend() == "mjx":
         budget = contact_budget(scene, traj, config, starts)
-        return engines.mjx().MjxBackend(scene, substeps, starts, budget, config.settle_substeps, impl=config.impl)
+        return _mjx().MjxBackend(scene, substeps, starts, budget, config.settle_substeps, impl=config.impl)
     return MujocoBackend(scene, substeps, starts, config.settle_substeps, nthread=config.nthread)
 
 

@@ -1,6 +1,8 @@
 """The pulling task: API shapes, damping, aux targets, termination vs truncation, robustness, bad config."""
 
 import dataclasses
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -191,3 +193,15 @@ def test_trajectory_of_another_object_is_rejected(drawer_task, shared_dir):
     other = read_trajectory(shared_dir / "reference" / "trajectories" / "45661.json")
     with pytest.raises(DragMeshError, match="object joints|moves joint"):
         PullTask(drawer_task.scene, other, drawer_task.config)
+
+
+def test_a_task_on_the_c_engine_never_imports_mjx():
+    """MJX is imported when a task chooses it: a process that steps the C engine (a CLI command, CPU training) does not
+    pay for MuJoCo Warp's kernels (a fresh process, since this one may have imported MJX already)."""
+    code = ("import sys; from dragmesh2_jax.cli import main; from dragmesh2_jax.runs.build import load_task; "
+            "from dragmesh2_jax.assets.procedural import default_object; "
+            "load_task(str(default_object()), None, backend='mujoco').reset(__import__('jax').random.PRNGKey(0)); "
+            "print('mujoco.mjx' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-1] == "False"
