@@ -7,7 +7,9 @@
 #   here:   cat <files_at>/generalist_sN.tgz.part* | tar -xz -C runs
 #           dragmesh2 train --generalist --out runs/generalist_sN --seed N --backend mujoco --resume
 # A device call returns at most 8 files of 16 MiB: the folder travels back as a gzipped tar cut into parts, with
-# only its last KEEP checkpoints (each ~9 MB; the run resumes from the newest).
+# only its last KEEP checkpoints (each ~9 MB; the run resumes from the newest). Going on there again needs the parts,
+# the wheels (40 MB) and the tree (13 MB) in one call's 64 MiB: a folder of 619 epochs came back as 55 MB, so a seed
+# starts there and goes on here (its record's paths are the same on both machines: the device runs in this path).
 set -uo pipefail
 seed=${SEED:?which seed}; budget=${GPU_BUDGET_S:-480}; keep=${KEEP:-2}
 name=generalist_s$seed; out=${OUT:-out/device}
