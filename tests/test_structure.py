@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from tests import TEST_XLA_FLAGS, known_to_xla
+
 PACKAGE = Path(__file__).resolve().parents[1] / "dragmesh2_jax"
 #: The data flow, bottom to top: a module imports only from its own floor or below.
 FLOORS = (
@@ -113,3 +115,11 @@ def test_a_group_of_tests_stays_on_one_worker(request):
     if not os.environ.get("PYTEST_XDIST_WORKER"):
         pytest.skip("not run by an xdist worker")
     assert request.config.getoption("loadgroup") and request.node.nodeid.endswith("@structure")
+
+
+def test_the_tests_compile_with_the_xla_flags_the_installed_xla_knows():
+    """An unknown flag would abort every test process; a known one is set for the whole suite (tests/__init__.py)."""
+    assert not known_to_xla("--xla_no_such_flag_anywhere=1")
+    assert known_to_xla(TEST_XLA_FLAGS[0])  # the optimisation level: XLA's oldest of them
+    for flag in TEST_XLA_FLAGS:
+        assert (flag in os.environ["XLA_FLAGS"].split()) == known_to_xla(flag)
