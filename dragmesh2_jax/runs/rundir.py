@@ -44,10 +44,13 @@ EPOCH_PREFIX = "epoch_"
 ACTOR_NAME = "actor" + ACTOR_SUFFIX
 #: Runs that ship with the package, by the name a checkpoint flag takes.
 PACKAGED = {"generalist": Path(__file__).resolve().parent.parent / "data" / "generalist"}
-#: What a run writes into its folder (the layout above); a new run replaces these and nothing else, so what the
-#: command built into the folder before the run started (the generalist's objects) stays.
-RUN_PRODUCTS = ("run.json", "trajectory.json", "trajectories", "log.jsonl", "log.csv", "robust.jsonl", "robust.csv",
-                "tb", "checkpoints", "evaluations", ACTOR_NAME)
+#: The layout's names (the module docstring).
+RECORD, TRAJECTORY, OBJECT_TRAJECTORIES, TENSORBOARD = "run.json", "trajectory.json", "trajectories", "tb"
+CHECKPOINTS, EVALUATIONS, TABLES, ROWS, CSV = "checkpoints", "evaluations", ("log", "robust"), ".jsonl", ".csv"
+#: What a run writes into its folder; a new run replaces these and nothing else, so what the command built into the
+#: folder before the run started (the generalist's objects) stays.
+RUN_PRODUCTS = (RECORD, TRAJECTORY, OBJECT_TRAJECTORIES, TENSORBOARD, CHECKPOINTS, EVALUATIONS, ACTOR_NAME,
+                *(t + x for t in TABLES for x in (ROWS, CSV)))
 
 
 def epoch_name(epoch: int) -> str:
@@ -66,15 +69,15 @@ class RunDir:
 
     @property
     def record_path(self) -> Path:
-        return self.path / "run.json"
+        return self.path / RECORD
 
     @property
     def trajectory_path(self) -> Path:
-        return self.path / "trajectory.json"
+        return self.path / TRAJECTORY
 
     @property
     def tensorboard(self) -> Path:
-        return self.path / "tb"
+        return self.path / TENSORBOARD
 
     def exists(self) -> bool:
         """Whether the folder holds a run (its record)."""
@@ -150,7 +153,7 @@ class RunDir:
         return read_trajectory(self.trajectory_path)
 
     def _object_trajectory_path(self, index: int) -> Path:
-        return self.path / "trajectories" / f"object_{index:03d}.json"
+        return self.path / OBJECT_TRAJECTORIES / f"object_{index:03d}.json"
 
     def trajectories(self) -> list[Trajectory]:
         """Every object's trajectory, in the spec's order (one for a single-object run)."""
@@ -159,7 +162,7 @@ class RunDir:
 
     # -------------------------------------------------------------------------------- checkpoints
     def checkpoint(self, name: str) -> Path:
-        return self.path / "checkpoints" / name
+        return self.path / CHECKPOINTS / name
 
     def has_checkpoint(self, name: str) -> bool:
         return is_checkpoint(self.checkpoint(name))
@@ -167,7 +170,7 @@ class RunDir:
     def epoch_checkpoints(self) -> dict[int, Path]:
         """The ``epoch_NNNN`` checkpoints by epoch."""
         out = {}
-        for p in (self.path / "checkpoints").glob(f"{EPOCH_PREFIX}*"):
+        for p in (self.path / CHECKPOINTS).glob(f"{EPOCH_PREFIX}*"):
             tail = p.name[len(EPOCH_PREFIX):]
             if tail.isdigit() and is_checkpoint(p):
                 out[int(tail)] = p
@@ -208,12 +211,12 @@ class RunDir:
         p = PACKAGED.get(str(path), Path(path))
         if str(path) in PACKAGED and not (p / ACTOR_NAME).is_file():
             raise DragMeshError(f"{p}: the packaged {path} is missing (reinstall dragmesh2-jax)")
-        if (p / "run.json").is_file():
+        if (p / RECORD).is_file():
             run = RunDir(p)
             return run, run.policy_checkpoint()
-        if is_checkpoint(p) and (p.parent.parent / "run.json").is_file():
+        if is_checkpoint(p) and (p.parent.parent / RECORD).is_file():
             return RunDir(p.parent.parent), p
-        if p.name == ACTOR_NAME and p.is_file() and (p.parent / "run.json").is_file():
+        if p.name == ACTOR_NAME and p.is_file() and (p.parent / RECORD).is_file():
             return RunDir(p.parent), p
         raise DragMeshError(f"{p}: no such checkpoint (a run folder, one of its checkpoints/*, or "
                             f"{' | '.join(PACKAGED)}: the packaged one)")
@@ -232,7 +235,7 @@ class RunDir:
         self._write_table("robust", rows)
 
     def _rows(self, stem: str, max_epoch: int | None) -> list[dict]:
-        path = self.path / f"{stem}.jsonl"
+        path = self.path / f"{stem}{ROWS}"
         if not path.is_file():
             return []
         try:
@@ -245,13 +248,13 @@ class RunDir:
 
     def _write_table(self, stem: str, rows: list[dict]) -> None:
         """``stem.jsonl`` and ``stem.csv`` (columns: every key, in the order first seen)."""
-        atomic_write_text(self.path / f"{stem}.jsonl", "".join(json.dumps(r) + "\n" for r in rows))
+        atomic_write_text(self.path / f"{stem}{ROWS}", "".join(json.dumps(r) + "\n" for r in rows))
         keys = list(dict.fromkeys(k for r in rows for k in r))
         buf = io.StringIO()
         w = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
         w.writeheader()
         w.writerows(rows)
-        atomic_write_text(self.path / f"{stem}.csv", buf.getvalue())
+        atomic_write_text(self.path / f"{stem}{CSV}", buf.getvalue())
 
     # -------------------------------------------------------------------------------- evaluations
     def evaluation_path(self, checkpoint: Path, protocol: EvalProtocol, suffix: str = ".json",
@@ -259,7 +262,7 @@ class RunDir:
         """Where an evaluation goes: by checkpoint and protocol, and ``on`` another object than the run's own (a
         zero-shot evaluation, by the object's name)."""
         where = f"__on-{on}" if on else ""
-        return self.path / "evaluations" / f"{checkpoint.name}__{protocol.name}{where}{suffix}"
+        return self.path / EVALUATIONS / f"{checkpoint.name}__{protocol.name}{where}{suffix}"
 
     def write_evaluation(self, checkpoint: Path, protocol: EvalProtocol, result: dict, markdown: str,
                          on: str | None = None) -> Path:
