@@ -55,8 +55,9 @@ def save_checkpoint(ts: TrainState, path: str | Path) -> Path:
 
 #: TrainState fields added after checkpoints were first written: a checkpoint without one restores with the
 #: template's value (the constraints' multipliers at 0: a run before them had none, and one of the single load
-#: constraint, whose scalar multiplier is not read, starts its multiplier again from 0 on resume).
-LATER_FIELDS = frozenset({"multipliers"})
+#: constraint, whose scalar multiplier is not read, starts its multiplier again from 0 on resume; an object mix's
+#: success rates, which only its curriculum keeps).
+LATER_FIELDS = frozenset({"multipliers", "object_success"})
 
 
 def _learner_fields(ts: TrainState) -> dict:

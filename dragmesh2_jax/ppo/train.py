@@ -33,6 +33,7 @@ import numpy as np
 import optax
 from flax import struct
 
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics.batch import map_batched
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.policies.gla import TokenWindows
@@ -63,14 +64,18 @@ class TrainState:
     epoch: jnp.ndarray
     lr: jnp.ndarray
     # the task's adaptive reward weights (``task.adaptive_weights``), each under its own name (checkpoints store it;
-    # a task without one leaves its default): ARAM's weight, the constraints' Lagrange multipliers in their order
+    # a task without one leaves its default): ARAM's weight, the constraints' Lagrange multipliers in their order,
+    # an object mix's success rate per object (its curriculum's draw: task/mix.py)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
+    object_success: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
 
     @property
     def weights(self) -> dict:
-        """The task's adaptive reward weights, by name (``replace(**weights)`` stores them back)."""
-        return {"aram_lambda": self.aram_lambda, "multipliers": self.multipliers}
+        """The task's adaptive weights, by name (``replace(**weights)`` stores them back); a task's own rules move
+        them (those of a task without the field stay empty)."""
+        weights = {"aram_lambda": self.aram_lambda, "multipliers": self.multipliers}
+        return weights | ({"object_success": self.object_success} if self.object_success.size else {})
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,6 +218,9 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
     metrics and the reward's adaptive weights are reduced over the axis, so every shard ends with the same state
     but its worlds. None: the whole batch here (no collective)."""
     c, net = program.config, program.net
+    if axis is not None and program.task.config.object_curriculum:
+        raise DragMeshError("the object curriculum counts each object's episodes in one process: train it without "
+                            "splitting the worlds over processes")
     env_state, rng, traj, adv, ret = _rollout(program, data, ts, axis)
     vs = ts.value_stats.update(ret[..., None], axis)  # value normalisation (the reference's normalize_value)
     n = traj["reward"].size  # this shard's samples (all of them: num_envs x rollout_len)

@@ -208,7 +208,7 @@ def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "ja
     return program, fresh.replace(params=src.params, state_stats=src.state_stats, token_stats=src.token_stats,
                                   aux_stats=src.aux_stats, privileged_stats=src.privileged_stats,
                                   value_stats=src.value_stats, epoch=src.epoch, aram_lambda=src.aram_lambda,
-                                  multipliers=src.multipliers), run, ck
+                                  multipliers=src.multipliers, object_success=src.object_success), run, ck
 
 
 def on_object(spec: RunSpec, object_dir: str) -> RunSpec:

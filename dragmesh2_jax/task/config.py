@@ -192,6 +192,9 @@ class TaskConfig:
     impl: str = "jax"  # MJX implementation: "jax" | "warp"
     contacts: int | None = None  # MJX contact slots per world (None: sized from a probe, physics/contacts.py)
     nthread: int | None = None  # C backend threads (default: all cores)
+    # beyond the paper, for an object mix: the share of resets drawn towards the objects the policy fails (each
+    # object weighed by 1 - its success, tracked per epoch; task/mix.py), the rest uniform; 0: every reset uniform
+    object_curriculum: float = 0.0
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @staticmethod
@@ -228,6 +231,8 @@ class TaskConfig:
             raise DragMeshError(f"friction_range must satisfy 0 <= lo <= hi, got {self.friction_range}")
         if self.contacts is not None and self.contacts < 1:
             raise DragMeshError(f"contacts per world must be >= 1, got {self.contacts}")
+        if not 0 <= self.object_curriculum <= 1:
+            raise DragMeshError(f"object_curriculum must be in [0, 1], got {self.object_curriculum}")
         if not 0 < self.rho <= 1:
             raise DragMeshError(f"rho must be in (0, 1], got {self.rho}")
 

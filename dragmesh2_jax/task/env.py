@@ -95,6 +95,8 @@ class TaskParams:
     hinge_radius: jnp.ndarray  # m, the handle centre's distance from the hinge axis (0 for a slide)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
+    # the object's probability of being drawn at a reset of an object mix (task/mix.py; set there by the trainer)
+    draw_weight: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(1.0))
 
 
 @struct.dataclass

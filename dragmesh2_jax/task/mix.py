@@ -10,6 +10,14 @@ model itself is stacked, so objects mix only when their models have the same str
 static fields: one object at other dampings, frictions or masses, or procedural objects built from the same
 pieces); objects of other structures are one clear error (train them as separate runs, or group them by structure).
 MJX-Warp does not mix objects: its contact buffer belongs to the whole batch, not to a world.
+
+The object curriculum (``TaskConfig.object_curriculum`` = beta > 0, beyond the paper): the draw follows the policy's
+failures instead of being uniform, P(object i) = (1 - beta) / n + beta w_i / sum_j w_j with w_i = 1 - s_i +
+``CURRICULUM_FLOOR``, where s_i is object i's success rate, an exponential average over epochs of the episodes that
+ended on it (``CURRICULUM_RATE``). Like the reward's adaptive weights, the trainer keeps the rates
+(``adaptive_weights``), binds the draw into each epoch's rollout (``bind_weights``) and moves them after it from the
+episodes' ends (``update_weights``); the hooks are the same, the rule is this module's. At beta = 0 the draw is
+uniform as without it (the same random stream).
 """
 
 from __future__ import annotations
@@ -27,6 +35,15 @@ from dragmesh2_jax.task.config import ResetNoise, TaskConfig
 from dragmesh2_jax.task.env import PullTask, TaskData
 from dragmesh2_jax.task.protocol import State
 from dragmesh2_jax.trajectory.schema import Trajectory
+
+#: The success rates' exponential average per epoch (an object meets a few episodes per epoch in a large mix).
+CURRICULUM_RATE = 0.1
+#: Every object keeps this weight in the prioritised draw when it always succeeds (none drops out of the batch).
+CURRICULUM_FLOOR = 0.05
+#: A new run's success rate of every object (no evidence either way).
+CURRICULUM_PRIOR = 0.5
+#: The per-step metric that names the object whose episode ended there (-1: none ended), for the curriculum's rates.
+OBJECT_END = "object_end"
 
 
 def _pad(x, n: int, axis: int):
@@ -148,34 +165,80 @@ class ObjectMix:
     def kinematics(self, ps):
         return self.base.kinematics(ps)  # every object has the same state layout (checked)
 
+    @property
+    def curriculum(self) -> float:
+        return self.config.object_curriculum
+
     def adaptive_weights(self) -> dict[str, jnp.ndarray]:
-        return self.base.adaptive_weights()  # every object has the same task config (checked)
+        """The reward's (every object has the same task config: checked) and, with the curriculum, each object's
+        success rate (``object_success``)."""
+        weights = self.base.adaptive_weights()
+        if self.curriculum:
+            weights["object_success"] = jnp.full(self.num_objects, CURRICULUM_PRIOR, jnp.float32)
+        return weights
+
+    def draw(self, success: jnp.ndarray) -> jnp.ndarray:
+        """Each object's probability of being drawn at a reset, from its success rate (the module's rule)."""
+        w = 1.0 - success + CURRICULUM_FLOOR
+        return (1.0 - self.curriculum) / self.num_objects + self.curriculum * w / w.sum()
 
     def bind_weights(self, data: TaskData, weights: dict) -> TaskData:
-        """``data`` with ``weights`` bound for every object (one set of weights for the whole mix)."""
+        """``data`` with ``weights`` bound for every object (one set of reward weights for the whole mix) and, with
+        the curriculum, the draw its success rates give."""
+        weights = dict(weights)
+        success = weights.pop("object_success", None)
         stacked = jax.tree.map(lambda w: jnp.broadcast_to(w, (self.num_objects, *jnp.shape(w))), weights)
-        return self.base.bind_weights(data, stacked)
+        data = self.base.bind_weights(data, stacked)
+        if self.curriculum:
+            data = data.replace(params=data.params.replace(draw_weight=self.draw(success)))
+        return data
 
     def update_weights(self, weights: dict, metrics: dict, steps: dict) -> tuple[dict, dict]:
-        return self.base.update_weights(weights, metrics, steps)
+        """The reward's weights moved by its rules and, with the curriculum, each object's success rate by the
+        episodes that ended on it this epoch (``steps``: the rollout's per-step metrics); ``draw_peak`` (the
+        most drawn object's probability x the number of objects: 1 is uniform) is logged."""
+        success = weights.get("object_success")
+        weights, metrics = self.base.update_weights(weights, metrics, steps)
+        if self.curriculum:
+            ended = steps[OBJECT_END][..., None] == jnp.arange(self.num_objects)  # (steps, worlds, objects)
+            episodes = ended.sum((0, 1))
+            wins = (ended * steps["success"][..., None]).sum((0, 1))
+            rate = wins / jnp.maximum(episodes, 1)
+            success = jnp.where(episodes > 0, success + CURRICULUM_RATE * (rate - success), success)
+            weights["object_success"] = success
+            metrics["draw_peak"] = self.draw(success).max() * self.num_objects
+        return weights, metrics
+
+    def _pick(self, key: jax.Array) -> jax.Array:
+        if self.curriculum:
+            return jax.random.categorical(key, jnp.log(self.data.params.draw_weight))
+        return jax.random.randint(key, (), 0, self.num_objects)
 
     def _with_object(self, state: State, index) -> State:
-        return state.replace(info={**state.info, "object": jnp.asarray(index, jnp.int32)})
+        state = state.replace(info={**state.info, "object": jnp.asarray(index, jnp.int32)})
+        return self._mark_end(state) if self.curriculum else state
+
+    def _mark_end(self, state: State) -> State:
+        """``state`` with the curriculum's per-step metric: its object where its episode ended, else -1."""
+        end = jnp.where(state.done, state.info["object"], -1).astype(jnp.float32)
+        return state.replace(metrics={**state.metrics, OBJECT_END: end})
 
     def reset(self, key: jax.Array, damping_scale=None, start=None) -> State:
         key, pick = jax.random.split(key)
-        index = jax.random.randint(pick, (), 0, self.num_objects)
+        index = self._pick(pick)
         return self._with_object(self.task(index).reset(key, damping_scale, start), index)
 
     def restart(self, state: State) -> State:
         """The world's next episode, on an object drawn anew from the world's rng."""
         rng, pick = jax.random.split(state.info["rng"])
-        index = jax.random.randint(pick, (), 0, self.num_objects)
+        index = self._pick(pick)
         fresh = self.task(index).restart(state.replace(info={**state.info, "rng": rng}))
         return self._with_object(fresh, index)
 
     def step(self, state: State, action: jnp.ndarray) -> State:
-        return self.task(state.info["object"]).step(state, action)
+        new = self.task(state.info["object"]).step(state, action)
+        return self._mark_end(new) if self.curriculum else new
 
     def step_target(self, state: State, target: jnp.ndarray) -> State:
-        return self.task(state.info["object"]).step_target(state, target)
+        new = self.task(state.info["object"]).step_target(state, target)
+        return self._mark_end(new) if self.curriculum else new

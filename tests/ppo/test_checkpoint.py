@@ -10,7 +10,7 @@ import orbax.checkpoint as ocp
 import pytest
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
+from dragmesh2_jax.ppo.checkpoint import LATER_FIELDS, load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from tests.conftest import TINY_RUNS, tiny_program
 
@@ -66,7 +66,8 @@ def test_a_checkpoint_from_before_the_constraints_restores_with_their_multiplier
     for retired in ({}, {"load_lambda": jnp.float32(3.0)}):
         save_checkpoint(ts, tmp_path / "ck")
         learner = ts.replace(env_state=None)  # the learner as a run before the multipliers existed wrote it:
-        learner = {f.name: getattr(learner, f.name) for f in dataclasses.fields(learner) if f.name != "multipliers"}
+        learner = {f.name: getattr(learner, f.name) for f in dataclasses.fields(learner)
+                   if f.name not in LATER_FIELDS}
         shutil.rmtree(tmp_path / "ck" / "learner")
         ck = ocp.StandardCheckpointer()
         ck.save((tmp_path / "ck" / "learner").absolute(), learner | retired)

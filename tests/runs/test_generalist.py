@@ -19,6 +19,7 @@ from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.generalist import GENERALIST, package_run
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED, RunDir
 from dragmesh2_jax.runs.spec import method_defaults
+from dragmesh2_jax.task.mix import CURRICULUM_PRIOR, CURRICULUM_RATE
 from tests.conftest import TINY_RUNS, installed_command
 
 pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # beside the other tiny runs: the engine's programs compile once
@@ -88,6 +89,22 @@ def test_a_new_generalist_into_a_run_is_refused_before_it_writes(generalist_run,
     assert dragmesh2(["train", "--generalist", "--out", str(generalist_run), *TINY]) == 2
     assert capsys.readouterr().err.startswith(f"error: {generalist_run}: already holds a run")
     assert {p: p.stat().st_mtime_ns for p in objects.rglob("*")} == before  # its objects as they were
+
+
+def test_the_object_curriculum_keeps_each_object_s_success_rate_across_a_resume(tmp_path, monkeypatch):
+    """A generalist with the curriculum (``--task.object-curriculum``) over a drawer and a door: episodes of two
+    steps end four times per world and epoch and never succeed, so each rate falls by the curriculum's rate every
+    epoch, through a checkpoint and a resume."""
+    monkeypatch.setattr(procedural, "GENERALIST_MIX", {"drawer_cabinet": 2, "door_cabinet": 2})
+    out = tmp_path / "run"
+    assert dragmesh2(["train", "--generalist", "--out", str(out), "--seed", "3", *TINY,
+                      "--task.object-curriculum", "1", "--task.episode-length", "2"]) == 0
+    assert dragmesh2(["train", "--generalist", "--out", str(out), "--resume", "--epochs", "3", "--quiet"]) == 0
+    for epoch in (2, 3):
+        _, ts, _, _ = load_run(out / "checkpoints" / f"epoch_{epoch:04d}")
+        np.testing.assert_allclose(ts.object_success, [CURRICULUM_PRIOR * (1 - CURRICULUM_RATE) ** epoch] * 2,
+                                   rtol=1e-5)
+    assert [r["draw_peak"] for r in RunDir(out).log_rows()] == pytest.approx([1.0] * 3)  # both fail alike
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import AramConfig, Constraint, RewardConfig
 from dragmesh2_jax.task.env import PullTask, make_batched
-from dragmesh2_jax.task.mix import ObjectMix
+from dragmesh2_jax.task.mix import CURRICULUM_PRIOR, CURRICULUM_RATE, OBJECT_END, ObjectMix
 from dragmesh2_jax.task.wrappers import AutoReset
 
 DRAWER, DOOR = (str(packaged_object(n)) for n in ("drawer_cabinet_0000", "door_cabinet_0000"))
@@ -70,3 +70,30 @@ def test_a_mix_binds_the_reward_s_adaptive_weights_for_every_object():
         p = bound.task(i).params
         assert float(p.aram_lambda) == 0.5 and p.multipliers.tolist() == [2.0]
     assert {k: v.shape for k, v in mix.adaptive_weights().items()} == {"aram_lambda": (), "multipliers": (1,)}
+
+
+def test_the_object_curriculum_draws_the_objects_the_policy_fails():
+    """Each object's success rate moves by the episodes that ended on it; the draw leans towards the failed one by
+    the curriculum's share; without the curriculum there are no rates and no per-step object metric."""
+    mix = ObjectMix([load_task(o, None, backend="mujoco", object_curriculum=1.0) for o in (DRAWER, DOOR)])
+    weights = mix.adaptive_weights()
+    assert weights["object_success"].tolist() == [CURRICULUM_PRIOR] * 2
+    # two steps of three worlds: the drawer's two episodes succeed, the door's two fail, one world goes on
+    steps = {OBJECT_END: jnp.asarray([[0.0, 1.0, -1.0], [0.0, -1.0, 1.0]]),
+             "success": jnp.asarray([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])}
+    moved, metrics = mix.update_weights(weights, {"success": 0.5, "episodes": 4.0, "clip099": 0.0}, steps)
+    np.testing.assert_allclose(moved["object_success"], [CURRICULUM_PRIOR + CURRICULUM_RATE * (1 - CURRICULUM_PRIOR),
+                                                         CURRICULUM_PRIOR - CURRICULUM_RATE * CURRICULUM_PRIOR])
+    assert float(metrics["draw_peak"]) > 1.0  # no longer uniform
+    # a policy that always opens the drawer and never the door: nearly every reset draws the door
+    bound = mix.bind(mix.bind_weights(mix.data, {**weights, "object_success": jnp.asarray([1.0, 0.0])}))
+    p = np.asarray(bound.data.params.draw_weight)
+    assert p.sum() == pytest.approx(1.0) and p[1] > 0.9
+    objects = np.asarray(jax.jit(jax.vmap(lambda k: bound.reset(k).info["object"]))(
+        jax.random.split(jax.random.PRNGKey(0), 200)))
+    assert 0.85 < objects.mean() < 1.0  # the door, as drawn
+    half = ObjectMix([load_task(o, None, backend="mujoco", object_curriculum=0.5) for o in (DRAWER, DOOR)])
+    assert float(half.draw(jnp.asarray([1.0, 0.0]))[0]) > 0.25  # half the draws stay uniform
+    plain = ObjectMix([load_task(o, None, backend="mujoco") for o in (DRAWER, DOOR)])
+    assert "object_success" not in plain.adaptive_weights()
+    assert OBJECT_END not in jax.jit(plain.reset)(jax.random.PRNGKey(0)).metrics
