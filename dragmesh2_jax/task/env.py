@@ -93,6 +93,7 @@ class TaskParams:
     revolute: jnp.ndarray  # the target joint is a hinge (bool)
     joint_axis: jnp.ndarray  # (3,) the target joint's axis in the handle's frame (task/observation.py)
     hinge_radius: jnp.ndarray  # m, the handle centre's distance from the hinge axis (0 for a slide)
+    long_sign: jnp.ndarray  # +-1: the handle's long axis as the observation reads it (task/observation.py)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
     # the object's probability of being drawn at a reset of an object mix (task/mix.py; set there by the trainer)
@@ -218,12 +219,13 @@ class PullTask:
         starts = reset_starts(scene, traj, config.reset_noise, start, config.rho)
         self.backend = make_backend(scene, config, starts, traj)
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
-        axis, radius = joint_geometry(scene)
+        axis, radius, sign = joint_geometry(scene)
         params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
                             q_done=jnp.float32(traj.q_done_at(config.rho)), damping=jnp.float32(scene.config.damping),
                             hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32),
                             revolute=jnp.bool_(scene.ids.target_is_revolute),
                             joint_axis=jnp.asarray(axis, jnp.float32), hinge_radius=jnp.float32(radius),
+                            long_sign=jnp.float32(sign),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,

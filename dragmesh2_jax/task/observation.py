@@ -6,7 +6,11 @@ Its world positions and raw joint values tie a policy to the object it was train
 
 ``handle`` (110, issue 36: an observation that transfers across objects): everything in the handle's current frame
 (columns: long axis, outward normal, their cross product; it moves with the part) or in task units, nothing that
-identifies the object: finger q and qd (45 + 45, already in the hand's own frame), the palm centre relative to the
+identifies the object. A bar's long axis is a line, not a direction: an importer may give it either way (GAPartNet's
+doors point it up, the procedural ones down), and the policy, which acts along the world's axes, would see one door
+as the other's mirror image. So its direction is the object's (``long_axis_sign``, fixed at the closed pose: it
+does not flip as the part turns): away from ``LONG_AXIS_AWAY``, i.e. down for an upright bar, along -y for a level
+one. The vector: finger q and qd (45 + 45, already in the hand's own frame), the palm centre relative to the
 handle centre (3), the wrist rotation as its x and y axes (6), the palm's linear velocity (3), the joint axis (3), the
 hinge radius (1, 0 for a slide), the joint type (1: revolute) and the part's state [progress, (q_done - q) / Delta,
 qd / Delta] (3). No force or touch sensing (``TaskConfig.force_obs`` appends the contact load to either).
@@ -35,10 +39,13 @@ class TaskParams(Protocol):
     revolute: jnp.ndarray
     joint_axis: jnp.ndarray
     hinge_radius: jnp.ndarray
+    long_sign: jnp.ndarray
 
 #: s_t's size per observation, without the contact load (the hand's 51 DoFs: 6 wrist + 45 finger).
 STATE_SIZES = {"paper": 120, "handle": 110}
 STATE_SIZE = STATE_SIZES["paper"]
+#: A handle's long axis points away from this world direction (an upright bar down, a level one along -y).
+LONG_AXIS_AWAY = np.array([0.0, 1.0, 1.0]) / np.sqrt(2.0)
 
 
 def state_size(config: TaskConfig) -> int:
@@ -46,10 +53,17 @@ def state_size(config: TaskConfig) -> int:
     return STATE_SIZES[config.observation] + (FORCE_SIZE if config.force_obs else 0)
 
 
-def joint_geometry(scene: Scene) -> tuple[np.ndarray, float]:
-    """The target joint's axis in the handle's frame (unit) and the hinge radius (m, the handle centre's distance from
-    the axis line; 0 for a slide), at the closed pose. Both stay constant as the part moves: the handle turns about
-    the hinge axis or slides along the slide's, so the host computes them once per object."""
+def long_axis_sign(long: np.ndarray) -> float:
+    """+1 or -1: the direction of a handle's long axis ``long`` (world frame) that points away from
+    ``LONG_AXIS_AWAY`` (kept when perpendicular to it)."""
+    return -1.0 if float(np.asarray(long) @ LONG_AXIS_AWAY) > 0 else 1.0
+
+
+def joint_geometry(scene: Scene) -> tuple[np.ndarray, float, float]:
+    """The target joint's axis in the handle's frame (unit), the hinge radius (m, the handle centre's distance from
+    the axis line; 0 for a slide) and the long axis's sign (``long_axis_sign``), at the closed pose. They stay
+    constant as the part moves: the handle turns about the hinge axis or slides along the slide's, so the host
+    computes them once per object."""
     m, d = scene.model, mujoco.MjData(scene.model)
     mujoco.mj_kinematics(m, d)
     joint = m.dof_jntid[scene.ids.target_dof]
@@ -57,7 +71,8 @@ def joint_geometry(scene: Scene) -> tuple[np.ndarray, float]:
     centre, frame = d.site_xpos[scene.ids.handle_site], d.site_xmat[scene.ids.handle_site].reshape(3, 3)
     arm = centre - anchor
     radius = float(np.linalg.norm(arm - (arm @ axis) * axis)) if scene.ids.target_is_revolute else 0.0
-    return frame.T @ axis, radius
+    sign = long_axis_sign(frame[:, 0])
+    return frame.T @ axis * np.array([sign, 1.0, sign]), radius, sign  # the long axis and the third turn with it
 
 
 def phi(params: TaskParams, q: jnp.ndarray) -> jnp.ndarray:
@@ -95,7 +110,7 @@ def paper_state(k: Kinematics, params: TaskParams) -> jnp.ndarray:
 
 
 def handle_state(k: Kinematics, params: TaskParams) -> jnp.ndarray:
-    long, normal = k.handle_rot[:3], k.handle_rot[3:]
+    long, normal = params.long_sign * k.handle_rot[:3], k.handle_rot[3:]
     frame = jnp.stack([long, normal, jnp.cross(long, normal)])  # rows: world -> handle frame
     rot, palm_v = _wrist(k)
     progress, left, delta = phi(params, k.obj_q)

@@ -13,6 +13,7 @@ from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.hand import NUM_VIRTUAL
 from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.scene import build_scene
@@ -77,8 +78,8 @@ def test_handle_state_is_invariant_to_moving_the_object(drawer_task):
 def test_a_hinge_keeps_its_axis_and_radius_in_the_handle_frame():
     """A door: the hinge axis read in the handle's frame and the handle's distance from it, open as closed."""
     scene = build_scene(load_gapartnet(packaged_object("door_cabinet_0000")))
-    axis, radius = joint_geometry(scene)
-    assert scene.ids.target_is_revolute and 0.05 < radius < 1.0
+    axis, radius, sign = joint_geometry(scene)
+    assert scene.ids.target_is_revolute and 0.05 < radius < 1.0 and sign == 1.0  # its bar points down already
     np.testing.assert_allclose(np.linalg.norm(axis), 1.0, rtol=1e-6)
     m, d = scene.model, mujoco.MjData(scene.model)
     d.qpos[scene.ids.target_qpos] = np.mean(scene.ids.target_range)
@@ -87,6 +88,24 @@ def test_a_hinge_keeps_its_axis_and_radius_in_the_handle_frame():
     arm = d.site_xpos[site] - d.xanchor[joint]
     np.testing.assert_allclose(d.site_xmat[site].reshape(3, 3).T @ d.xaxis[joint], axis, atol=1e-6)
     np.testing.assert_allclose(np.linalg.norm(arm - (arm @ d.xaxis[joint]) * d.xaxis[joint]), radius, rtol=1e-6)
+
+
+def test_a_bar_given_the_other_way_reads_the_same():
+    """An importer may point a bar's long axis up or down (GAPartNet's doors up, the procedural ones down): the same
+    door with its handle frame turned half a turn about the normal gives the same handle observation."""
+    task = load_task(str(packaged_object("door_cabinet_0000")), None, backend="mujoco", observation="handle")
+    scene = build_scene(task.scene.obj, task.scene.config)
+    site = scene.ids.handle_site
+    half_turn = Rotation.from_euler("y", np.pi)  # about the site's own y: its outward normal
+    quat = (Rotation.from_quat(scene.model.site_quat[site], scalar_first=True) * half_turn).as_quat(scalar_first=True)
+    scene.model.site_quat[site] = quat
+    (axis, radius, sign), (axis2, radius2, sign2) = joint_geometry(task.scene), joint_geometry(scene)
+    assert sign == -sign2 and radius == pytest.approx(radius2)
+    np.testing.assert_allclose(axis, axis2, atol=1e-6)
+    k = task.kinematics(task.reset(jax.random.PRNGKey(0)).physics)
+    other = k.replace(handle_rot=jnp.concatenate([-k.handle_rot[:3], k.handle_rot[3:]]))
+    np.testing.assert_allclose(handle_state(k, task.params), handle_state(other, task.params.replace(
+        joint_axis=jnp.asarray(axis2, jnp.float32), long_sign=jnp.float32(sign2))), atol=1e-6)
 
 
 def _turned(k, q_rot: np.ndarray, t: np.ndarray):
