@@ -4,9 +4,12 @@ back from the runs' evaluation files: per object and mode, each damping's succes
 seeds with every seed's value; the four objects' average per seed, the same way; the physical figures (means over
 seeds); and the issue's target checked (det >= 0.85 at x1 and >= 0.70 at x4 averaged, every object >= 0.5 at x4).
 
-    python experiments/generalist_table.py runs/generalist_s0 runs/generalist_s1 runs/generalist_s2 [--out T.md]
+    python experiments/generalist_table.py runs/generalist_s0 runs/generalist_s1 runs/generalist_s2 [--out T.md] \
+        [--finetuned FT]
 
 Every run must hold the same protocol's evaluation of its policy checkpoint on every object (else one error line).
+``--finetuned FT``: the fine-tuned rows too, from ``experiments/generalist_finetune.sh FT``'s evaluations
+(``FT/ft_<object>_s<seed>.json``; the seeds found on every object), laid out alike.
 """
 
 from __future__ import annotations
@@ -38,6 +41,16 @@ def load(run: Path, objects: tuple[str, ...]) -> tuple[dict, str]:
     if len(protocols) > 1:
         raise ValueError(f"{run}: evaluations of several protocols")
     return found, protocols.pop()
+
+
+def load_finetuned(folder: Path, objects: tuple[str, ...]) -> list[dict]:
+    """One ``{object: {(mode, damping): cell}}`` per seed that was fine-tuned on every object (its evaluations)."""
+    seeds = [sorted(int(f.stem.rsplit("_s", 1)[1]) for f in folder.glob(f"ft_{oid}_s*.json")) for oid in objects]
+    common = sorted(set(seeds[0]).intersection(*seeds[1:]))
+    if not common:
+        raise ValueError(f"{folder}: no seed fine-tuned on every one of {', '.join(objects)}")
+    return [{oid: {(c["mode"], c["damping"]): c for c in json.loads(
+        (folder / f"ft_{oid}_s{seed}.json").read_text())["cells"]} for oid in objects} for seed in common]
 
 
 def cell(values) -> str:
@@ -80,9 +93,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", type=Path)
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--finetuned", type=Path)
     a = ap.parse_args(argv)
     try:
         loaded = [load(r, OBJECTS) for r in a.runs]
+        finetuned = load_finetuned(a.finetuned, OBJECTS) if a.finetuned else None
     except (ValueError, OSError, json.JSONDecodeError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -91,6 +106,8 @@ def main(argv=None) -> int:
         return 2
     runs = [r for r, _ in loaded]
     text = table(runs, OBJECTS) + "\n" + target(runs, OBJECTS)
+    if finetuned:
+        text += f"\nFine-tuned 20 epochs on each object ({len(finetuned)} seeds):\n\n" + table(finetuned, OBJECTS)
     if a.out:
         a.out.write_text(text)
     print(text)

@@ -47,3 +47,18 @@ def test_a_run_without_an_evaluation_on_every_object_is_one_error_line(tmp_path)
     (run / "evaluations" / "final__n20__on-11712.json").unlink()
     res = _table(run)
     assert res.returncode == 2 and res.stderr == f"error: {run}: no zero-shot evaluation on 11712\n"
+
+
+def test_the_fine_tuned_rows_come_from_the_seeds_fine_tuned_on_every_object(tmp_path):
+    run = _run_folder(tmp_path, 0, dict.fromkeys(OBJECTS, 1.0))
+    ft = tmp_path / "ft"
+    ft.mkdir()
+    for seed, x4 in ((0, 0.5), (1, 1.0), (2, 1.0)):
+        for oid in OBJECTS if seed < 2 else OBJECTS[:1]:  # seed 2 fine-tuned on one object only: left out
+            cells = [{"mode": "det", "damping": d, "success_rate": x4 if d == 4.0 else 1.0, **FIGURES}
+                     for d in (1.0, 4.0)]
+            (ft / f"ft_{oid}_s{seed}.json").write_text(json.dumps({"cells": cells}))
+    res = _table(run, "--finetuned", ft)
+    assert res.returncode == 0, res.stderr
+    tail = res.stdout.split("Fine-tuned 20 epochs on each object (2 seeds):", 1)[1].splitlines()
+    assert "| 45780 | det | 1.00 ± 0.00 (1.00, 1.00) | 0.75 ± 0.25 (0.50, 1.00) |" in tail
