@@ -91,10 +91,6 @@ def _loads_or_one_line(path, what: str):
         assert "\n" not in str(e), what
 
 
-# A truncated checkpoint fails Orbax's restore while TensorStore still finishes other reads, whose callbacks then
-# reach Orbax's closed event loop ("Event loop is closed", raised where nothing can catch it): Orbax's own cleanup,
-# after the one error line this test asserts. Python reports them whenever they are collected.
-@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 def test_a_damaged_run_folder_loads_or_is_one_error_line(run, tmp_path):
     rng = random.Random(0)
     text = json.dumps(run.record(), indent=1)
