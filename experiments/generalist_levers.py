@@ -67,7 +67,7 @@ def table(rows: dict, kinds: dict, dampings: tuple[float, ...]) -> str:
     arms: dict = defaultdict(dict)
     for name, objects in rows.items():
         arm, seed = name.rsplit("_s", 1)
-        arms[arm][seed] = {o: rates(c, dampings) for o, c in objects.items()}
+        arms[arm][seed] = {o: rates(c, dampings) for o, c in objects.items() if o in kinds}
     head = " / ".join(f"x{d:g}" for d in dampings)
     lines = ["| arm | seeds | " + " | ".join(f"{kind} x{d:g}" for kind in ("test set", "shared objects")
                                             for d in dampings) + " |", "|---|---|" + "---|" * 2 * len(dampings)]
@@ -111,7 +111,15 @@ def main() -> None:
     if saved and saved["protocol"] != protocol.name:
         raise SystemExit(f"error: {dest} holds another protocol ({saved['protocol']}); use another OUT")
     rows = saved.get("policies", {})
-    policies = dict(s.split("=", 1) for s in args.policies)
+    policies = {}
+    for arg in args.policies:
+        name, sep, checkpoint = arg.partition("=")
+        if not sep or "_s" not in name or not name.rsplit("_s", 1)[1].isdigit():
+            raise SystemExit(f"error: {arg!r}: a policy is ARM_sSEED=CHECKPOINT")
+        if saved.get("checkpoints", {}).get(name, checkpoint) != checkpoint:
+            raise SystemExit(f"error: {name} was evaluated from {saved['checkpoints'][name]} in {dest}, not "
+                             f"{checkpoint}")
+        policies[name] = checkpoint
     checkpoints = saved.get("checkpoints", {}) | policies
     for name, checkpoint in policies.items():
         done = rows.setdefault(name, {})

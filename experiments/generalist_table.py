@@ -28,13 +28,14 @@ FIGURES = (("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"), ("palm_speed_p
            ("clip099_active", "clip099 active", "{:.2f}"), ("penetration_max_mm", "penetration [mm]", "{:.1f}"))
 
 
-def load(run: Path, objects: tuple[str, ...]) -> tuple[dict, str]:
-    """{object: {(mode, damping): cell}} of ``run``'s latest zero-shot evaluation per object, and its protocol."""
+def load(run: Path, objects: tuple[str, ...], checkpoint: str = "final") -> tuple[dict, str]:
+    """{object: {(mode, damping): cell}} of ``run``'s zero-shot evaluation of ``checkpoint`` per object (the
+    latest, where several protocols were run), and its protocol."""
     found, protocols = {}, set()
     for oid in objects:
-        files = sorted((run / "evaluations").glob(f"*__on-{oid}.json"), key=lambda p: p.stat().st_mtime)
+        files = sorted((run / "evaluations").glob(f"{checkpoint}__*__on-{oid}.json"), key=lambda p: p.stat().st_mtime)
         if not files:
-            raise ValueError(f"{run}: no zero-shot evaluation on {oid}")
+            raise ValueError(f"{run}: no zero-shot evaluation of {checkpoint} on {oid}")
         r = json.loads(files[-1].read_text())
         protocols.add(json.dumps(r["protocol"], sort_keys=True))
         found[oid] = {(c["mode"], c["damping"]): c for c in r["cells"]}
@@ -49,8 +50,10 @@ def load_finetuned(folder: Path, objects: tuple[str, ...]) -> list[dict]:
     common = sorted(set(seeds[0]).intersection(*seeds[1:]))
     if not common:
         raise ValueError(f"{folder}: no seed fine-tuned on every one of {', '.join(objects)}")
-    return [{oid: {(c["mode"], c["damping"]): c for c in json.loads(
-        (folder / f"ft_{oid}_s{seed}.json").read_text())["cells"]} for oid in objects} for seed in common]
+    found = [{oid: json.loads((folder / f"ft_{oid}_s{seed}.json").read_text()) for oid in objects} for seed in common]
+    if len({json.dumps(r.get("protocol"), sort_keys=True) for seed in found for r in seed.values()}) > 1:
+        raise ValueError(f"{folder}: fine-tunes evaluated under several protocols")
+    return [{oid: {(c["mode"], c["damping"]): c for c in r["cells"]} for oid, r in seed.items()} for seed in found]
 
 
 def cell(values) -> str:
@@ -98,7 +101,7 @@ def main(argv=None) -> int:
     try:
         loaded = [load(r, OBJECTS) for r in a.runs]
         finetuned = load_finetuned(a.finetuned, OBJECTS) if a.finetuned else None
-    except (ValueError, OSError, json.JSONDecodeError) as e:
+    except (ValueError, KeyError, OSError, json.JSONDecodeError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     if len({p for _, p in loaded}) > 1:

@@ -32,12 +32,12 @@ def main() -> None:
         pol = rollout(task, c.make_policy(True), c.params, [1.0], episodes=args.starts, steps=args.policy_steps + 1,
                       key=c.key)
         t = tracking_controller(task)
-        exp = rollout(task, t.make_policy(True), t.params, [1.0], controls=t.controls, steps=args.expert_steps,
+        exp = rollout(task, t.make_policy(True), t.params, [1.0], controls=t.controls, steps=args.expert_steps + 1,
                       key=t.key)
         e = exp["hand_q"][-1, 0, :3] - exp["hand_q"][0, 0, :3]
         d = pol["hand_q"][args.policy_steps, :, :3] - pol["hand_q"][0, :, :3]
-        cos = d @ e / (np.linalg.norm(d, axis=1) * np.linalg.norm(e))
-        dq = pol["q"][args.policy_steps] - pol["q"][0]
+        cos = d @ e / np.maximum(np.linalg.norm(d, axis=1) * np.linalg.norm(e), 1e-12)
+        dq = pol["obj_q"][args.policy_steps] - pol["obj_q"][0]  # both recorded before each step
         print(f"{obj}: cosine {cos.mean():.2f} (per start {', '.join(f'{x:.2f}' for x in cos)}), wrist moved "
               f"{np.linalg.norm(d, axis=1).mean() * 100:.1f} cm in {args.policy_steps} steps (the expert "
               f"{np.linalg.norm(e) * 100:.1f} cm in {args.expert_steps}), part moved {dq.mean():.3f}", flush=True)

@@ -46,7 +46,7 @@ def test_a_run_without_an_evaluation_on_every_object_is_one_error_line(tmp_path)
     run = _run_folder(tmp_path, 0, dict.fromkeys(OBJECTS, 1.0))
     (run / "evaluations" / "final__n20__on-11712.json").unlink()
     res = _table(run)
-    assert res.returncode == 2 and res.stderr == f"error: {run}: no zero-shot evaluation on 11712\n"
+    assert res.returncode == 2 and res.stderr == f"error: {run}: no zero-shot evaluation of final on 11712\n"
 
 
 def test_the_fine_tuned_rows_come_from_the_seeds_fine_tuned_on_every_object(tmp_path):
