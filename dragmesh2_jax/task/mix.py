@@ -215,11 +215,13 @@ class ObjectMix:
         return jax.random.randint(key, (), 0, self.num_objects)
 
     def _with_object(self, state: State, index) -> State:
-        state = state.replace(info={**state.info, "object": jnp.asarray(index, jnp.int32)})
-        return self._mark_end(state) if self.curriculum else state
+        return self._mark_end(state.replace(info={**state.info, "object": jnp.asarray(index, jnp.int32)}))
 
     def _mark_end(self, state: State) -> State:
-        """``state`` with the curriculum's per-step metric: its object where its episode ended, else -1."""
+        """``state`` with the curriculum's per-step metric (its object where its episode ended, else -1); as it is
+        without the curriculum."""
+        if not self.curriculum:
+            return state
         end = jnp.where(state.done, state.info["object"], -1).astype(jnp.float32)
         return state.replace(metrics={**state.metrics, OBJECT_END: end})
 
@@ -236,9 +238,7 @@ class ObjectMix:
         return self._with_object(fresh, index)
 
     def step(self, state: State, action: jnp.ndarray) -> State:
-        new = self.task(state.info["object"]).step(state, action)
-        return self._mark_end(new) if self.curriculum else new
+        return self._mark_end(self.task(state.info["object"]).step(state, action))
 
     def step_target(self, state: State, target: jnp.ndarray) -> State:
-        new = self.task(state.info["object"]).step_target(state, target)
-        return self._mark_end(new) if self.curriculum else new
+        return self._mark_end(self.task(state.info["object"]).step_target(state, target))

@@ -7,13 +7,14 @@ Its world positions and raw joint values tie a policy to the object it was train
 ``handle`` (110, issue 36: an observation that transfers across objects): everything in the handle's current frame
 (columns: long axis, outward normal, their cross product; it moves with the part) or in task units, nothing that
 identifies the object. A bar's long axis is a line, not a direction: an importer may give it either way (GAPartNet's
-doors point it up, the procedural ones down), and the policy, which acts along the world's axes, would see one door
-as the other's mirror image. So its direction is the object's (``long_axis_sign``, fixed at the closed pose: it
-does not flip as the part turns): away from ``LONG_AXIS_AWAY``, i.e. down for an upright bar, along -y for a level
-one. The vector: finger q and qd (45 + 45, already in the hand's own frame), the palm centre relative to the
-handle centre (3), the wrist rotation as its x and y axes (6), the palm's linear velocity (3), the joint axis (3), the
-hinge radius (1, 0 for a slide), the joint type (1: revolute) and the part's state [progress, (q_done - q) / Delta,
-qd / Delta] (3). No force or touch sensing (``TaskConfig.force_obs`` appends the contact load to either).
+doors point it up, the procedural ones down), and the policy, which acts along the world's axes, would read one door as
+another turned half a turn about the handle's normal (hinged on the other side). So its direction is the object's
+(``long_axis_sign``, fixed at the closed pose: it does not flip as the part turns): away from ``LONG_AXIS_AWAY``, i.e.
+down for an upright bar, along -y for a level one. The vector: finger q and qd (45 + 45, already in the hand's own
+frame), the palm centre relative to the handle centre (3), the wrist rotation as its x and y axes (6), the palm's
+linear velocity (3), the joint axis (3), the hinge radius (1, 0 for a slide), the joint type (1: revolute) and the
+part's state [progress, (q_done - q) / Delta, qd / Delta] (3). No force or touch sensing (``TaskConfig.force_obs``
+appends the contact load to either).
 """
 
 from __future__ import annotations
