@@ -12,7 +12,7 @@ import pytest
 from PIL import Image
 
 from dragmesh2_jax import render
-from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.assets.procedural import default_object, packaged_object
 from dragmesh2_jax.cli.flags import GROUPS, NOT_FLAGS, SHORT_FLAGS, parse_tree, print_tree_help, tree_changes
 from dragmesh2_jax.cli.parser import build_parser
 from dragmesh2_jax.evaluation.protocol import PAPER
@@ -98,6 +98,7 @@ BAD_INPUT = [
     ["train", "--object", "{obj}", "--out", "{tmp}/x", "--task.damping-fixed", "inf"],
     ["train", "--object", "{obj}", "--out", "{tmp}/x", "--scene.friction", "-1"],
     ["train", "--object", "{obj}", "--out", "{tmp}/x", "--scene.damping", "nan"],
+    ["train", "--object", "{obj}", "--out", "{tmp}/x", "--task.object-curriculum", "0.5"],  # one object: no mix
     ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "-1"],
     ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "inf"],
     ["evaluate", "--method", "teleport", "--object", "{obj}"],
@@ -188,23 +189,28 @@ def tree_help(default: RunSpec) -> dict[str, str]:
 
 
 def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and_scene():
-    argv = ["train", "--object", str(default_object()), "--out", "x"]
+    """Over two objects, where every flag (the object curriculum too) has something to act on."""
+    objects = [str(default_object()), str(packaged_object("door_cabinet_0000"))]
+    argv = ["train", "--objects", *objects, "--out", "x"]
     for prefix, values in FLAG_VALUES.items():
         argv += [a for f, v in values.items() for a in (flag_of(f"{prefix}.{f}"), _flag(v))]
     args, rest = build_parser().parse_known_args(argv)
     default = method_defaults("pica")
     changes = tree_changes(parse_tree(rest, default, "dragmesh2 train"), default)
     assert changes == FLAG_VALUES
-    spec = method_spec("pica", args.object, changes["ppo"], changes["task"], changes["scene"], backend="mujoco",
+    assert args.objects == objects
+    spec = method_spec("pica", args.objects, changes["ppo"], changes["task"], changes["scene"], backend="mujoco",
                        network=changes["network"], schedule=changes["schedule"])
     assert RunSpec.from_record(spec.record("mujoco")) == spec  # the record holds every flag
     program = program_of(spec)
+    assert program.task.num_objects == 2
     built = {"task": program.task.config, "scene": program.task.scene.config, "ppo": program.config,
              "network": program.network, "schedule": spec.schedule}
     for prefix, values in FLAG_VALUES.items():
         for f, v in values.items():
             assert getattr(built[prefix], f) == v, f"{prefix}.{f}"
-    assert float(program.task.params.q_done) == pytest.approx(program.task.traj.q_done_at(0.6))  # rho is live
+    first = program.task.tasks[0]
+    assert float(first.params.q_done) == pytest.approx(first.traj.q_done_at(0.6))  # rho is live
     # and no flag is left out of this table: tyro offers exactly these, and the nested configs' fields
     offered = {f for f in tree_help(default) if f.count(".") < 2}
     nested = {f"--{g}.{f.name}".replace("_", "-") for g in GROUPS for f in dataclasses.fields(getattr(default, g))

@@ -212,8 +212,10 @@ def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "ja
 
 
 def on_object(spec: RunSpec, object_dir: str) -> RunSpec:
-    """``spec`` on one object instead of its own object(s): a policy carried onto a new object."""
-    return dataclasses.replace(spec, object=str(object_dir), objects=(), holdout=0)
+    """``spec`` on one object instead of its own object(s): a policy carried onto a new object (with no mix to draw
+    from, the object curriculum is off)."""
+    return dataclasses.replace(spec, object=str(object_dir), objects=(), holdout=0,
+                               task=dataclasses.replace(spec.task, object_curriculum=0.0))
 
 
 def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "jax",

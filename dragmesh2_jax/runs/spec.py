@@ -248,7 +248,10 @@ def method_spec(method: str, object_dir: str | list[str], ppo: dict | None = Non
              "task.impl": impl, **{f"ppo.{k}": v for k, v in (ppo or {}).items() if v is not None}}
     for group, changes in (("task", task), ("scene", scene), ("network", network), ("schedule", schedule)):
         given |= {f"{group}.{k}": v for k, v in (changes or {}).items()}
-    return apply_overrides(method_defaults(method), given)
+    spec = apply_overrides(method_defaults(method), given)
+    if spec.task.object_curriculum and len(spec.training_objects) < 2:
+        raise DragMeshError("--task.object-curriculum draws among a run's training objects; this run trains on one")
+    return spec
 
 
 def finetune_spec(parent: RunSpec, recipe: str, checkpoint: str, epochs: int, schedule: dict | None = None

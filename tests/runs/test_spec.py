@@ -22,7 +22,7 @@ from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs.build import program_of
-from dragmesh2_jax.runs.commands import load_run
+from dragmesh2_jax.runs.commands import load_run, on_object
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
@@ -178,6 +178,17 @@ def test_overrides_are_dotted_paths_into_the_tree_and_an_unknown_one_is_named():
         assert "\n" not in str(e.value)
     for name in METHODS:  # every method is a valid set of overrides
         assert method_defaults(name).method == name
+
+
+def test_the_object_curriculum_needs_two_training_objects_and_a_policy_carried_onto_one_drops_it():
+    drawer, door = "drawer_cabinet_0000", "door_cabinet_0000"
+    spec = method_spec("pica", [drawer, door], task={"object_curriculum": 0.5})
+    assert spec.task.object_curriculum == 0.5
+    carried = on_object(spec, door)  # a zero-shot evaluation or a fine-tune onto one object
+    assert carried.task.object_curriculum == 0 and dataclasses.replace(carried.task, object_curriculum=0.5) == spec.task
+    for objects, holdout in ((drawer, 0), ([drawer, door], 1)):  # one object to train on: nothing to draw among
+        with pytest.raises(DragMeshError, match="--task.object-curriculum"):
+            method_spec("pica", objects, holdout=holdout, task={"object_curriculum": 0.5})
 
 
 def test_a_new_method_is_one_entry_that_reaches_the_record_and_the_command_line(monkeypatch, tmp_path, capsys):
