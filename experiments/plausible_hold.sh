@@ -5,8 +5,9 @@
 # and saturation; 300 epochs in all), their multipliers capped at 20 and at 100; 3 seeds, 50 perturbed starts per
 # cell, x1-x8 and x16, det and stoch, C engine; the physical figures are in every cell. The paper's methods (pica,
 # state_only) beside them at the same budget and checkpoint (300 epochs, final). Resumable: reproduce skips what is
-# done, a stopped fine-tune resumes.
+# done, a stopped fine-tune resumes. RECIPES (default "plausible plausible_cap100") names the fine-tunes.
 #   bash experiments/plausible_hold.sh [OUT]      (about 3 hours on 2 CPU cores)
+#   RECIPES=plausible_load bash experiments/plausible_hold.sh [OUT]
 set -euo pipefail
 out=${1:-runs/plausible_hold}
 door=$(python -c "from dragmesh2_jax.assets.procedural import packaged_object; print(packaged_object('door_cabinet_0000'))")
@@ -15,7 +16,7 @@ dragmesh2 reproduce main --methods hold_blind --objects "$door" --seeds 0,1,2 --
   --out "$out/door"
 dragmesh2 reproduce main --methods pica,state_only --objects "$door" --seeds 0,1,2 --epochs 300 --checkpoint final \
   "${cells[@]}" --out "$out/door_paper"
-for recipe in plausible plausible_cap100; do for s in 0 1 2; do
+for recipe in ${RECIPES:-plausible plausible_cap100}; do for s in 0 1 2; do
   ft="$out/$recipe/s$s"
   if [ ! -f "$ft/run.json" ]; then
     dragmesh2 finetune --checkpoint "$out/door/runs/door_cabinet_0000/hold_blind_s$s/checkpoints/epoch_0150" \

@@ -45,8 +45,8 @@ def main(argv=None) -> int:
     rows = {"pica (300 epochs)": runs("door_paper/runs/*/pica_s*", "pica_s*"),
             "state_only (300 epochs)": runs("door_paper/runs/*/state_only_s*", "state_only_s*"),
             "hold_blind (300 epochs)": runs("door/runs/*/hold_blind_s*", "hold_blind_s*"),
-            "hold_blind 150 + plausible 150": runs("plausible/s*", "plausible_s*"),
-            "hold_blind 150 + plausible_cap100 150": runs("plausible_cap100/s*", "plausible_cap100_s*")}
+            **{f"hold_blind 150 + {r} 150": runs(f"{r}/s*", f"{r}_s*")
+               for r in ("plausible", "plausible_cap100", "plausible_load")}}
     lines = ["| method | damping | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
              "|---|---|" + "---|" * len(COLUMNS)]
     for name, folders in rows.items():

@@ -29,6 +29,10 @@ PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=1.0, lamb
                   for measure, limit, budget in (("palm_speed", PALM_SPEED_LIMIT, 0.02),
                                                  ("load", RewardConfig.f_hold, 0.02),
                                                  ("wrist_saturation", CLIP_LEVEL, SATURATION_BUDGET)))
+#: ``plausible_load``: the wrist load alone (issue 33's target bounds the load, not the pace; under ``plausible`` the
+#: pace bound kept the door slow enough to time out at x8, and with three multipliers capped the costs stayed over
+#: budget), its multiplier moving twice as fast as ``plausible``'s under ``plausible_cap100``'s cap.
+PLAUSIBLE_LOAD = (Constraint("load", RewardConfig.f_hold, "rate", budget=0.02, lr=2.0, lambda_max=100.0),)
 
 
 @dataclass(frozen=True)
@@ -61,6 +65,9 @@ FINETUNES = {f.name: f for f in (
              "still over budget and falling)",
              {"task.reward.constraints": tuple(dataclasses.replace(c, lambda_max=100.0) for c in PLAUSIBLE),
               "task.reward.lagrangian": "normalized"}, epochs=PAPER_EPOCHS),
+    Finetune("plausible_load", "the wrist load alone as a CMDP constraint (plausible's, its multiplier at lr 2 and "
+             "capped at 100): the force bounded, the pace left to the policy",
+             {"task.reward.constraints": PLAUSIBLE_LOAD, "task.reward.lagrangian": "normalized"}, epochs=PAPER_EPOCHS),
 )}
 
 
