@@ -27,12 +27,17 @@ def cell(values: list[float], fmt: str) -> str:
     return f"{fmt.format(v.mean())} ± {fmt.format(se)} ({', '.join(fmt.format(x) for x in v)})"
 
 
-def latest(folder: Path, checkpoint: str = "*", modes: str = "det-stoch") -> dict:
-    """The run's evaluation of ``checkpoint`` (by default its last: its final checkpoint, which reproduce names by
-    its epoch) at x1-x16, 50 episodes: in the run's evaluations, or beside its run.json (as results/plausible keeps
-    them)."""
+def evaluations(folder: Path, checkpoint: str = "*", modes: str = "det-stoch") -> list[Path]:
+    """The run's evaluation files of ``checkpoint`` at x1-x16, 50 episodes, sorted: in the run's evaluations, or
+    beside its run.json (as results/plausible keeps them)."""
     pattern = f"{checkpoint}__x1-2-4-8-16_{modes}_n50_*.json"
-    (path,) = sorted([*folder.glob(f"evaluations/{pattern}"), *folder.glob(pattern)])[-1:]
+    return sorted([*folder.glob(f"evaluations/{pattern}"), *folder.glob(pattern)])
+
+
+def latest(folder: Path, checkpoint: str = "*", modes: str = "det-stoch") -> dict:
+    """The run's last evaluation of ``checkpoint`` (by default its last checkpoint: its final one, which reproduce
+    names by its epoch)."""
+    (path,) = evaluations(folder, checkpoint, modes)[-1:]
     return json.loads(path.read_text())
 
 
@@ -45,8 +50,7 @@ def main(argv=None) -> int:
     runs = lambda *patterns: sorted(f for pattern in patterns for f in out.glob(pattern))  # noqa: E731
     # the recipe at the paper's budget: its runs' epoch-150 checkpoints (evaluated det only: `evaluate --checkpoint
     # RUN/checkpoints/epoch_0150 --mode det`, the other cells as above)
-    hold150 = [f for f in runs("door/runs/*/hold_blind_s*", "hold_blind_s*")
-               if [*f.glob("epoch_0150__*_det_n50_*.json"), *f.glob("evaluations/epoch_0150__*_det_n50_*.json")]]
+    hold150 = [f for f in runs("door/runs/*/hold_blind_s*", "hold_blind_s*") if evaluations(f, "epoch_0150", "det")]
     rows = {"pica (300 epochs)": runs("door_paper/runs/*/pica_s*", "pica_s*"),
             "state_only (300 epochs)": runs("door_paper/runs/*/state_only_s*", "state_only_s*"),
             "hold_blind (300 epochs)": runs("door/runs/*/hold_blind_s*", "hold_blind_s*"),
@@ -54,10 +58,10 @@ def main(argv=None) -> int:
                for r in ("plausible", "plausible_cap100", "plausible_load")}}
     lines = ["| method | damping | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
              "|---|---|" + "---|" * len(COLUMNS)]
-    evaluations = {name: [latest(f) for f in folders] for name, folders in rows.items()}
+    cells = {name: [latest(f) for f in folders] for name, folders in rows.items()}
     if hold150 and a.mode == "det":
-        evaluations = {"hold_blind (150 epochs)": [latest(f, "epoch_0150", "det") for f in hold150], **evaluations}
-    for name, evals in evaluations.items():
+        cells = {"hold_blind (150 epochs)": [latest(f, "epoch_0150", "det") for f in hold150], **cells}
+    for name, evals in cells.items():
         if not evals:  # a variant not run into OUT
             continue
         for d in (1.0, 2.0, 4.0, 8.0, 16.0):
