@@ -203,9 +203,10 @@ def build_parser() -> argparse.ArgumentParser:
     pft = sub.add_parser("finetune", help="continue a trained run with a diagnostic preset (ARAM, Reconfig, ...)")
     pft.add_argument("--checkpoint", required=True,
                      help="a run's checkpoint, or the run folder (the checkpoint its method reads)")
-    pft.add_argument("--recipe", required=True, help=" | ".join(FINETUNES))
+    pft.add_argument("--recipe", required=True,
+                     help=" | ".join(f"{name} ({f.epochs} epochs)" for name, f in FINETUNES.items()))
     pft.add_argument("--out", required=True, help="run folder of the fine-tune")
-    pft.add_argument("--epochs", type=POSITIVE, help="epochs to add (default: the preset's, 50)")
+    pft.add_argument("--epochs", type=POSITIVE, help="epochs to add (default: the preset's)")
     pft.add_argument("--seed", type=int, help="start the fine-tune's worlds and sampling from this seed (default: "
                                               "the run's seed, continuing the checkpoint's stream)")
     pft.add_argument("--save-every", type=POSITIVE, default=SAVE_EVERY, help="epochs between checkpoints")

@@ -58,11 +58,13 @@ class ReconfigConfig:
     cooldown: int = 10  # steps
 
 
-#: What a constraint bounds, per control step: the wrist's pull |F_wrist| (N), the palm's speed (m/s), the largest
-#: |a_i| over the DoFs that move and over the wrist's six alone (action units; above CLIP_LEVEL the step is saturated:
-#: a grip pressed deeper than alpha needs saturated finger actions, so the expert's replay saturates an active DoF in
-#: every step: RESULTS.md §3b) and the deepest hand-object penetration (m).
-MEASURES = ("load", "palm_speed", "saturation", "wrist_saturation", "penetration")
+#: What a constraint bounds, per control step: the wrist's pull |F_wrist| (N), how far the part trails the expert drag
+#: at its own pace (``lag``: the plan's target joint at this step less the part's, as a fraction of q_goal - q_start;
+#: negative when ahead), the palm's speed (m/s), the largest |a_i| over the DoFs that move and over the wrist's six
+#: alone (action units; above CLIP_LEVEL the step is saturated: a grip pressed deeper than alpha needs saturated
+#: finger actions, so the expert's replay saturates an active DoF in every step: RESULTS.md §3b) and the deepest
+#: hand-object penetration (m).
+MEASURES = ("load", "lag", "palm_speed", "saturation", "wrist_saturation", "penetration")
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit).
 COSTS = ("excess", "rate")
@@ -86,7 +88,7 @@ class Constraint:
     holds (RewardConfig.f_hold)."""
 
     measure: str = "load"  # one of MEASURES
-    limit: float = 100.0  # in the measure's units (N, m/s, action units, m)
+    limit: float = 100.0  # in the measure's units (N, progress, m/s, action units, m)
     cost: str = "excess"  # one of COSTS
     budget: float = 0.01  # allowed mean cost per step
     lr: float = 50.0  # lambda per unit of mean cost over budget, per epoch

@@ -94,6 +94,7 @@ class TaskParams:
     joint_axis: jnp.ndarray  # (3,) the target joint's axis in the handle's frame (task/observation.py)
     hinge_radius: jnp.ndarray  # m, the handle centre's distance from the hinge axis (0 for a slide)
     long_sign: jnp.ndarray  # +-1: the handle's long axis as the observation reads it (task/observation.py)
+    schedule: jnp.ndarray  # (episode_length,) the target joint after each step of the expert drag at its own pace
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
     # the object's probability of being drawn at a reset of an object mix (task/mix.py; set there by the trainer)
@@ -226,6 +227,7 @@ class PullTask:
                             revolute=jnp.bool_(scene.ids.target_is_revolute),
                             joint_axis=jnp.asarray(axis, jnp.float32), hinge_radius=jnp.float32(radius),
                             long_sign=jnp.float32(sign),
+                            schedule=jnp.asarray(traj.drag_schedule(config.control_dt, config.episode_length)),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
@@ -421,9 +423,11 @@ class PullTask:
         return Events(d=d, q=q, success=success, detach=detach, terminated=terminated,
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
-    def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray) -> dict[str, jnp.ndarray]:
+    def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray, ev: Events) -> dict[str, jnp.ndarray]:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
+        p = self.params
         return {"load": jnp.linalg.norm(k.force[:3]),
+                "lag": (p.schedule[jnp.minimum(ev.step, p.schedule.shape[0]) - 1] - ev.q) / (p.q_goal - p.q_start),
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration}
@@ -462,7 +466,7 @@ class PullTask:
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
-        measures = self._measures(palm_before, k, a)
+        measures = self._measures(palm_before, k, a, ev)
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
                              for x in c.reward.constraints], jnp.float32)
         reward, terms, reward_state = self._reward(state, a, k, ev, finite, costs)

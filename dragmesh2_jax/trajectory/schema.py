@@ -134,25 +134,35 @@ class Trajectory:
                 start = i
         return out
 
-    def drag_targets(self, control_dt: float, pace: float = 1.0) -> np.ndarray:
-        """The expert drag as hand PD targets, one per control step of ``control_dt``: the frames after the drag
-        start through the end of the first contiguous drag block, each held for frame_dt / control_dt steps (1 for
-        ours, 2 for the reference's 30 Hz files). At another ``pace`` the same path is resampled in time (0.5: twice
-        as many steps, linearly interpolated; 1: the frames themselves)."""
-        if not (math.isfinite(pace) and pace > 0):
-            raise DragMeshError(f"pace must be a positive number, got {pace}")
+    def _drag_frames(self, control_dt: float) -> list[int]:
+        """The frames of the expert drag, one per control step of ``control_dt``: those after the drag start through
+        the end of the first contiguous drag block, each repeated frame_dt / control_dt times (1 for ours, 2 for the
+        reference's 30 Hz files); the drag start alone for a drag block of one frame."""
         frame_dt = self.header.get("scene", {}).get("frame_dt", 1.0 / 30.0)
         hold = max(1, int(round(frame_dt / control_dt)))
         start = self.drag_start
         end = next((b for p, a, b in self.phase_blocks() if p == "drag" and a == start), len(self.frames))
-        frames = [self.frames[i].hand_target or self.frames[i].hand_q for i in range(start + 1, end)]
-        if not frames:  # a drag block of one frame: hold the grasp
-            frames = [self.frames[start].hand_target or self.frames[start].hand_q]
-        targets = np.repeat(np.asarray(frames, np.float32), hold, axis=0)
+        return [i for i in (list(range(start + 1, end)) or [start]) for _ in range(hold)]
+
+    def drag_targets(self, control_dt: float, pace: float = 1.0) -> np.ndarray:
+        """The expert drag as hand PD targets, one per control step of ``control_dt`` (``_drag_frames``). At another
+        ``pace`` the same path is resampled in time (0.5: twice as many steps, linearly interpolated; 1: the frames
+        themselves)."""
+        if not (math.isfinite(pace) and pace > 0):
+            raise DragMeshError(f"pace must be a positive number, got {pace}")
+        targets = np.asarray([self.frames[i].hand_target or self.frames[i].hand_q
+                              for i in self._drag_frames(control_dt)], np.float32)
         n = len(targets)
         t = np.linspace(0.0, n - 1.0, max(1, int(round(n / pace))))
         return np.stack([np.interp(t, np.arange(n), targets[:, j]) for j in range(targets.shape[1])],
                         1).astype(np.float32)
+
+    def drag_schedule(self, control_dt: float, steps: int) -> np.ndarray:
+        """The target joint where the expert drag, at its own pace, puts it after each of ``steps`` control steps:
+        the plan's q of the frame whose hand target the step applies (``drag_targets``), the last held once the drag
+        ends."""
+        q = self.target_q[self._drag_frames(control_dt)]
+        return np.concatenate([q, np.full(max(0, steps - len(q)), q[-1])])[:steps].astype(np.float32)
 
     def to_json(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "header": self.header,

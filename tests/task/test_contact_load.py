@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.baselines.tracking import drag_targets
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.ppo.finetune import PLAUSIBLE
@@ -99,6 +100,30 @@ def test_the_plausible_finetune_trains_the_recipe_and_each_multiplier_takes_one_
         assert 0 <= cost <= 1 and float(m[f"lambda_{x.measure}"]) == float(ts.multipliers[i])
         assert float(ts.multipliers[i]) == pytest.approx(min(max(x.lr * (cost - x.budget), 0.0), x.lambda_max),
                                                          abs=1e-5)
+
+
+def test_lag_is_how_far_the_part_trails_the_expert_drag_at_its_own_pace():
+    """lag_t = (schedule[t] - q_t) / (q_goal - q_start), the schedule the plan's target joint after step t of the
+    expert drag: replayed, the expert keeps the part within a tenth of the motion range of it at x1 (no cost past a
+    limit of 0.1); a hand that holds still trails it by the plan's own progress (the excess cost past the limit)."""
+    limit = 0.1
+    task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(constraints=(Constraint("lag", limit),)))
+    targets, steps, p = jnp.asarray(drag_targets(task)), 90, task.params
+
+    def run(still: bool):
+        s = task.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
+
+        def body(s, t):
+            s = task.step(s, jnp.zeros(51)) if still else task.step_target(s, targets[t])
+            return s, (s.metrics["q"], s.metrics["cost_lag"])
+
+        return jax.lax.scan(body, s, jnp.arange(steps))[1]
+
+    (q_expert, cost_expert), (q_still, cost_still) = jax.device_get(jax.jit(lambda: (run(False), run(True)))())
+    assert q_expert[-1] > q_expert[0] + 0.2 * (p.q_goal - p.q_start) and cost_expert.max() == 0.0
+    lag = (np.asarray(p.schedule[:steps]) - q_still) / float(p.q_goal - p.q_start)
+    np.testing.assert_allclose(cost_still, np.maximum(lag - limit, 0.0) / limit, rtol=1e-4, atol=1e-4)
+    assert lag[-1] > 2 * limit and cost_still[-1] > 0
 
 
 def test_a_normalized_lagrangian_charges_a_detached_episode_every_step_it_had_left():

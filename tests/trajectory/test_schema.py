@@ -20,6 +20,18 @@ def test_reference_45261_drawer(shared_dir):
     assert t.hand_q.shape == (271, 51)
 
 
+def test_the_drag_schedule_is_the_plans_joint_at_each_control_step_of_the_drag_then_held(shared_dir):
+    """45261 is a 30 Hz file: at 60 Hz each of its 160 drag frames after the grasp stands for two control steps, as
+    in the hand targets the replay applies; after the drag the plan's last q holds."""
+    t = read_trajectory(shared_dir / "reference" / "trajectories" / "45261.json")
+    q = t.target_q[t.drag_start + 1:t.drag_start + 161]
+    s = t.drag_schedule(1.0 / 60.0, 400)
+    assert s.shape == (400,) and len(t.drag_targets(1.0 / 60.0)) == 320
+    np.testing.assert_allclose(s[:320], np.repeat(q, 2), atol=1e-6)
+    np.testing.assert_allclose(s[320:], q[-1], atol=1e-6)
+    np.testing.assert_allclose(t.drag_schedule(1.0 / 30.0, 100), q[:100], atol=1e-6)
+
+
 def test_reference_45661_has_grasp_drag_release(shared_dir):
     t = read_trajectory(shared_dir / "reference" / "trajectories" / "45661.json")
     assert [p for p, _, _ in t.phase_blocks()] == ["grasp", "drag", "release"]
