@@ -1,7 +1,9 @@
 """The table of experiments/plausible_hold.sh: per method and damping, success and the physical figures (mean ± SE
 over seeds, every seed's value), from the evaluation files the runs keep, with the expert at its own pace beside them.
 
-    python experiments/plausible_table.py OUT [--mode det]   (OUT: the script's output folder or results/plausible)"""
+    python experiments/plausible_table.py OUT [--mode det]   (OUT: the script's output folder or results/plausible)
+    python experiments/plausible_table.py OUT --object DIR --row "LABEL=GLOB" [--row ...]   (only these rows: each
+        GLOB, under OUT, matches one evaluation file per seed on the object in DIR)"""
 
 from __future__ import annotations
 
@@ -45,8 +47,15 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out")
     ap.add_argument("--mode", default="det")
+    ap.add_argument("--row", action="append", default=[], metavar="LABEL=GLOB")
+    ap.add_argument("--object", help="the rows' object folder (with --row)")
     a = ap.parse_args(argv)
     out = Path(a.out)
+    if a.row:
+        rows = dict(r.split("=", 1) for r in a.row)
+        print(table({label: [json.loads(f.read_text()) for f in sorted(out.glob(g))] for label, g in rows.items()},
+                    a.mode, a.object))
+        return 0
     runs = lambda *patterns: sorted(f for pattern in patterns for f in out.glob(pattern))  # noqa: E731
     # the recipe at the paper's budget: its runs' epoch-150 checkpoints (evaluated det only: `evaluate --checkpoint
     # RUN/checkpoints/epoch_0150 --mode det`, the other cells as above)
@@ -56,27 +65,32 @@ def main(argv=None) -> int:
             "hold_blind (300 epochs)": runs("door/runs/*/hold_blind_s*", "hold_blind_s*"),
             **{f"hold_blind 150 + {r} 150": runs(f"{r}/s*", f"{r}_s*")
                for r in ("plausible", "plausible_cap100", "plausible_load")}}
-    lines = ["| method | damping | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
-             "|---|---|" + "---|" * len(COLUMNS)]
     cells = {name: [latest(f) for f in folders] for name, folders in rows.items()}
     if hold150 and a.mode == "det":
         cells = {"hold_blind (150 epochs)": [latest(f, "epoch_0150", "det") for f in hold150], **cells}
+    print(table(cells, a.mode, json.loads((rows["hold_blind (300 epochs)"][0] / "run.json").read_text())["object"]))
+    return 0
+
+
+def table(cells: dict[str, list[dict]], mode: str, obj: str) -> str:
+    """Per row (its seeds' evaluations) and damping x1-x16, the cells of ``mode``; the expert at its own pace on the
+    rows' object (its folder ``obj``) from the same 50 starts below them."""
+    lines = ["| method | damping | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
+             "|---|---|" + "---|" * len(COLUMNS)]
     for name, evals in cells.items():
         if not evals:  # a variant not run into OUT
             continue
         for d in (1.0, 2.0, 4.0, 8.0, 16.0):
-            cs = [next(c for c in e["cells"] if c["damping"] == d and c["mode"] == a.mode) for e in evals]
+            cs = [next(c for c in e["cells"] if c["damping"] == d and c["mode"] == mode) for e in evals]
             figures = " | ".join(cell([c[k] for c in cs], f) for k, _, f in COLUMNS)
             lines.append(f"| {name} | x{d:g} | {figures} |")
-    obj = json.loads((rows["hold_blind (300 epochs)"][0] / "run.json").read_text())["object"]
     task = load_task(obj, None, backend="mujoco")
     protocol = EvalProtocol(dampings=(1.0, 2.0, 4.0, 8.0, 16.0), modes=("det",), episodes=50)
     expert = evaluate(protocol.task(task), tracking_controller(task), protocol)
     for c in expert["cells"]:
         lines.append(f"| expert (its own pace) | x{c['damping']:g} | " +
                      " | ".join(f.format(c[k]) for k, _, f in COLUMNS) + " |")
-    print("\n".join(lines))
-    return 0
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
