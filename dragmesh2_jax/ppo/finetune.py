@@ -36,8 +36,8 @@ PLAUSIBLE_LOAD = (Constraint("load", RewardConfig.f_hold, "rate", budget=0.02, l
 #: ``plausible_pace``: ``plausible_load`` with a pace target from the expert drag: the part at most PACE_LAG of its
 #: motion range behind where the expert's plan has it at each step (``lag`` in ``config.MEASURES``) in all but
 #: LAG_BUDGET of the steps. The load bound alone left the policy pulling too little to keep up at x8 (45 N where the
-#: expert pulls 88 N steadily: RESULTS.md §3b); together they admit the expert's own pull (replayed from the perturbed
-#: starts on the tuning door, it pays neither cost at x1-x8 but 0.4% of steps past 100 N at x8).
+#: expert pulls 88 N steadily: RESULTS.md §3b); together they admit the expert's own pull (replayed from 8 perturbed
+#: starts on the tuning door at x1-x8: no step past the lag limit, 0.1-0.4% of its steps past 100 N).
 PACE_LAG = 0.2
 LAG_BUDGET = 0.05
 PLAUSIBLE_PACE = PLAUSIBLE_LOAD + (Constraint("lag", PACE_LAG, "rate", budget=LAG_BUDGET, lr=2.0, lambda_max=100.0),)
