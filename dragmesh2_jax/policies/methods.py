@@ -104,6 +104,9 @@ METHODS = {m.name: m for m in (
            {**HOLD_BLIND, "task.observation": "handle", "schedule.epochs": GENERALIST_EPOCHS,
             "schedule.save_every": 100, "schedule.robust_every": 100,
             "schedule.robust_episodes": GENERALIST_ROBUST_EPISODES}),
+    Method("hold_blind_residual", "the recipe (hold_blind) as a residual over the expert drag: the policy's action "
+           "adds to the one that follows the drag at its own pace (its zero replays the expert), so it learns the "
+           "corrections, not the pull (issue 33)", {**HOLD_BLIND, "task.expert_prior": True}),
     Method("hold_blind_cmdp", "PICA-Hold without force or touch sensing and with the wrist load as a CMDP constraint "
            "(the load is seen by the critic and the cost, never by the policy)",
            {**HOLD, "task.reward.constraints": (Constraint(),)}),

@@ -29,7 +29,8 @@ from dragmesh2_jax.runs.session import RESCHEDULABLE, start_or_resume
 from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, method_spec
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
-from dragmesh2_jax.task.env import contact_budget, reset_starts
+from dragmesh2_jax.task.env import contact_budget
+from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.generator import generate
 from dragmesh2_jax.trajectory.schema import write_trajectory
 from dragmesh2_jax.viewer import require_display, view

@@ -197,6 +197,10 @@ class TaskConfig:
     # beyond the paper, for an object mix: the share of resets drawn towards the objects the policy fails (each
     # object weighed by 1 - its success, tracked per epoch; task/mix.py), the rest uniform; 0: every reset uniform
     object_curriculum: float = 0.0
+    # beyond the paper, residual learning over the expert drag: the applied action is the policy's plus the one that
+    # moves the hand to the drag's target for this step at its own pace (the tracking_delta baseline's action), both
+    # clipped to [-1, 1]; a policy that outputs zeros replays the expert (the hand only: the drag is the hand's)
+    expert_prior: bool = False
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @staticmethod

@@ -71,7 +71,8 @@ from dragmesh2_jax.task.rewards import (
     term_names,
     update_weights,
 )
-from dragmesh2_jax.trajectory.schema import RHO, Trajectory
+from dragmesh2_jax.task.starts import reset_starts
+from dragmesh2_jax.trajectory.schema import Trajectory
 
 TOKEN_SIZE = 2 * NUM_DOFS
 AUX_SIZE = 4
@@ -95,6 +96,7 @@ class TaskParams:
     hinge_radius: jnp.ndarray  # m, the handle centre's distance from the hinge axis (0 for a slide)
     long_sign: jnp.ndarray  # +-1: the handle's long axis as the observation reads it (task/observation.py)
     schedule: jnp.ndarray  # (episode_length,) the target joint after each step of the expert drag at its own pace
+    drag: jnp.ndarray  # (episode_length, 51) the expert drag's hand targets per step (TaskConfig.expert_prior), or (0,)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
     # the object's probability of being drawn at a reset of an object mix (task/mix.py; set there by the trainer)
@@ -136,29 +138,15 @@ def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
         raise DragMeshError("trajectory never moves its target joint (zero motion range)")
 
 
-def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start: Start | None = None,
-                 rho: float = RHO) -> list[Start]:
-    """The start states of the task: ``start`` (default: the expert grasp, the trajectory's drag-start frame), or
-    ``noise.bank`` seeded perturbations of it (truncated normal on the wrist pose and, for the hand, the active
-    finger joints; the object joint opened by a uniform fraction of the distance to q_done at ``rho``)."""
-    if start is None:
-        frame = traj.frames[traj.drag_start]
-        start = frame.hand_q, frame.joint_positions[traj.target_index]
-    hand_q, obj_q = np.asarray(start[0], np.float64), float(start[1])
-    if noise is None:
-        return [(hand_q, obj_q)]
-    rng = np.random.default_rng(noise.seed)
-    hand = scene.config.effector == "hand"
-    fingers = np.flatnonzero(scene.config.active_dofs()[NUM_VIRTUAL:]) + NUM_VIRTUAL if hand else []
-    trunc = lambda std, n: std * np.clip(rng.standard_normal(n), -2.0, 2.0)  # noqa: E731
-    starts = []
-    for _ in range(noise.bank):
-        dq = np.zeros(len(hand_q))
-        dq[:3], dq[3:NUM_VIRTUAL] = trunc(noise.wrist_pos, 3), trunc(noise.wrist_rot, 3)
-        dq[fingers] = trunc(noise.fingers, len(fingers))
-        opened = rng.uniform(0.0, noise.object_q) * (traj.q_done_at(rho) - traj.q_start)
-        starts.append((hand_q + dq, obj_q + opened))
-    return starts
+def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarray:
+    """The expert drag's hand target per control step of an episode (the last held) under ``expert_prior``; else
+    nothing (an empty array)."""
+    if not config.expert_prior:
+        return np.zeros(0, np.float32)
+    if scene.config.effector != "hand":
+        raise DragMeshError("expert_prior needs the hand (the expert drag moves the hand, not a gripper)")
+    targets = traj.drag_targets(config.control_dt)
+    return targets[np.minimum(np.arange(config.episode_length), len(targets) - 1)]
 
 
 def substeps_of(scene: Scene, config: TaskConfig) -> int:
@@ -228,6 +216,7 @@ class PullTask:
                             joint_axis=jnp.asarray(axis, jnp.float32), hinge_radius=jnp.float32(radius),
                             long_sign=jnp.float32(sign),
                             schedule=jnp.asarray(traj.drag_schedule(config.control_dt, config.episode_length)),
+                            drag=jnp.asarray(expert_drag(scene, traj, config)),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
@@ -386,9 +375,14 @@ class PullTask:
         return fresh.replace(info={**fresh.info, "rng": key})
 
     def step(self, state: State, action: jnp.ndarray) -> State:
-        """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits)."""
+        """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits) (with
+        ``expert_prior``, a the policy's residual over the expert drag's action)."""
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state.physics)
+        if self.config.expert_prior:  # the residual over the expert drag's action of this step
+            drag = self.params.drag
+            prior = (drag[jnp.minimum(state.info["step"], drag.shape[0] - 1)] - k0.hand_q) / self.config.alpha
+            a = jnp.clip(a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)
 

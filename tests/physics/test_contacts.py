@@ -15,7 +15,8 @@ from dragmesh2_jax.physics.mjx_backend import MjxBackend
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import init_jit, make_train, stack_runs, train
 from dragmesh2_jax.task.config import TaskConfig
-from dragmesh2_jax.task.env import PullTask, contact_budget, reset_starts
+from dragmesh2_jax.task.env import PullTask, contact_budget
+from dragmesh2_jax.task.starts import reset_starts
 from tests.conftest import TINY_NET
 
 

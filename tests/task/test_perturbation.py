@@ -13,7 +13,8 @@ from dragmesh2_jax.evaluation.evaluate import track
 from dragmesh2_jax.evaluation.protocol import EVAL_RESET_NOISE, PAPER, EvalProtocol
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.task.config import ResetNoise
-from dragmesh2_jax.task.env import PullTask, make_batched, reset_starts
+from dragmesh2_jax.task.env import PullTask, make_batched
+from dragmesh2_jax.task.starts import reset_starts
 from tests.conftest import REAL_OBJECTS
 
 
