@@ -9,6 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from dragmesh2_jax.baselines.parallel_jaw import parallel_jaw
+from dragmesh2_jax.baselines.tracking import tracking_delta_controller
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import TaskConfig
@@ -205,3 +207,32 @@ def test_a_task_on_the_c_engine_never_imports_mjx():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip().splitlines()[-1] == "False"
+
+
+def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_task):
+    """expert_prior: the applied action is the policy's plus the tracking_delta baseline's, so zeros follow the drag
+    exactly as that baseline does (the same part and hand motion), and a policy's action moves the hand off it."""
+    prior = _task(drawer_task, expert_prior=True)
+    delta = tracking_delta_controller(drawer_task)
+    policy = delta.make_policy(True)
+    steps = 60
+
+    def run(task, act):
+        s = task.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
+
+        def body(s, _):
+            s = task.step(s, act(s))
+            return s, (s.metrics["q"], task.kinematics(s.physics).hand_q)
+
+        return jax.lax.scan(body, s, None, length=steps)[1]
+
+    (q_delta, h_delta), (q_zero, h_zero), (_, h_push) = jax.device_get(jax.jit(lambda: (
+        run(drawer_task, lambda s: policy(delta.params, s.obs, None)), run(prior, lambda s: jnp.zeros(51)),
+        run(prior, lambda s: jnp.full(51, 0.5))))())
+    np.testing.assert_allclose(q_zero, q_delta, atol=1e-5)
+    np.testing.assert_allclose(h_zero, h_delta, atol=1e-5)
+    assert q_zero[-1] > q_zero[0] + 0.1 * float(prior.params.q_goal - prior.params.q_start)  # the drag opens it
+    assert np.abs(h_push - h_zero).max() > 0.01
+    assert drawer_task.params.drag.shape == (0,) and prior.params.drag.shape == (prior.config.episode_length, 51)
+    with pytest.raises(DragMeshError, match="expert_prior needs the hand"):
+        parallel_jaw(prior)
