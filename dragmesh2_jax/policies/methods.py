@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.task.config import Constraint, ResetNoise
+from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig
 
 #: The recipe's evaluation cells: its training range x1-x8 and x16 beyond it (out of its training distribution).
 RECIPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
@@ -49,6 +49,13 @@ HOLD: dict[str, Any] = {"network.critic": "privileged", "task.damping_range": (1
 #: The recipe: PICA-Hold without the contact-load sensors, twice the paper's budget, read at its final checkpoint.
 HOLD_BLIND: dict[str, Any] = {**HOLD, "schedule.epochs": RECIPE_EPOCHS, "schedule.checkpoint": "final",
                               "schedule.dampings": RECIPE_DAMPINGS}
+#: The wrist load bounded to what the grasp holds (issue 33): at most 2% of steps past RewardConfig.f_hold, a CMDP
+#: constraint whose multiplier moves at lr 2 up to 100, in the normalised Lagrangian (RESULTS.md §3b).
+LOAD_BOUND: dict[str, Any] = {"task.reward.constraints": (Constraint("load", RewardConfig.f_hold, "rate", budget=0.02,
+                                                                     lr=2.0, lambda_max=100.0),),
+                              "task.reward.lagrangian": "normalized"}
+#: Residual learning over the expert drag (TaskConfig.expert_prior).
+RESIDUAL: dict[str, Any] = {"task.expert_prior": True}
 #: Contact-load sensors (wrist F/T, palm and phalanx touch) in s_t and in every history token.
 FORCE_OBS: dict[str, Any] = {"task.force_obs": True}
 
@@ -106,7 +113,10 @@ METHODS = {m.name: m for m in (
             "schedule.robust_episodes": GENERALIST_ROBUST_EPISODES}),
     Method("hold_blind_residual", "the recipe (hold_blind) as a residual over the expert drag: the policy's action "
            "adds to the one that follows the drag at its own pace (its zero replays the expert), so it learns the "
-           "corrections, not the pull (issue 33)", {**HOLD_BLIND, "task.expert_prior": True}),
+           "corrections, not the pull (issue 33)", {**HOLD_BLIND, **RESIDUAL}),
+    Method("hold_blind_residual_load", "hold_blind_residual with the wrist load bounded from the start (at most 2% of "
+           "steps past the 100 N the grasp holds, a CMDP constraint): the expert's pull, corrected within its force",
+           {**HOLD_BLIND, **RESIDUAL, **LOAD_BOUND}),
     Method("hold_blind_cmdp", "PICA-Hold without force or touch sensing and with the wrist load as a CMDP constraint "
            "(the load is seen by the critic and the cost, never by the policy)",
            {**HOLD, "task.reward.constraints": (Constraint(),)}),

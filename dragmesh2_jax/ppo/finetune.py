@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.policies.methods import LOAD_BOUND
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.task.config import AramConfig, Constraint, ReconfigConfig, RewardConfig
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
@@ -32,7 +33,7 @@ PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=1.0, lamb
 #: ``plausible_load``: the wrist load alone (issue 33's target bounds the load, not the pace; under ``plausible`` the
 #: pace bound kept the door slow enough to time out at x8, and with three multipliers capped the costs stayed over
 #: budget), its multiplier moving twice as fast as ``plausible``'s under ``plausible_cap100``'s cap.
-PLAUSIBLE_LOAD = (Constraint("load", RewardConfig.f_hold, "rate", budget=0.02, lr=2.0, lambda_max=100.0),)
+PLAUSIBLE_LOAD = LOAD_BOUND["task.reward.constraints"]
 #: ``plausible_pace``: ``plausible_load`` with a pace target from the expert drag: the part at most PACE_LAG of its
 #: motion range behind where the expert's plan has it at each step (``lag`` in ``config.MEASURES``) in all but
 #: LAG_BUDGET of the steps. The load bound alone left the policy pulling too little to keep up at x8 (45 N where the
@@ -75,7 +76,7 @@ FINETUNES = {f.name: f for f in (
               "task.reward.lagrangian": "normalized"}, epochs=PAPER_EPOCHS),
     Finetune("plausible_load", "the wrist load alone as a CMDP constraint (plausible's, its multiplier at lr 2 and "
              "capped at 100): the force bounded, the pace left to the policy",
-             {"task.reward.constraints": PLAUSIBLE_LOAD, "task.reward.lagrangian": "normalized"}, epochs=PAPER_EPOCHS),
+             LOAD_BOUND, epochs=PAPER_EPOCHS),
     Finetune("plausible_pace", "plausible_load with a pace target: the part kept within a fifth of its range of the "
              "expert drag's schedule, the force bounded (300 epochs: plausible_load met its budget in 300, not 150)",
              {"task.reward.constraints": PLAUSIBLE_PACE, "task.reward.lagrangian": "normalized"},
