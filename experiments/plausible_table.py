@@ -16,6 +16,7 @@ import numpy as np
 from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
+from dragmesh2_jax.policies.methods import RECIPE_DAMPINGS
 from dragmesh2_jax.runs.build import load_task
 
 COLUMNS = (("success_rate", "success", "{:.2f}"), ("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"),
@@ -80,12 +81,12 @@ def table(cells: dict[str, list[dict]], mode: str, obj: str) -> str:
     for name, evals in cells.items():
         if not evals:  # a variant not run into OUT
             continue
-        for d in (1.0, 2.0, 4.0, 8.0, 16.0):
+        for d in RECIPE_DAMPINGS:
             cs = [next(c for c in e["cells"] if c["damping"] == d and c["mode"] == mode) for e in evals]
             figures = " | ".join(cell([c[k] for c in cs], f) for k, _, f in COLUMNS)
             lines.append(f"| {name} | x{d:g} | {figures} |")
     task = load_task(obj, None, backend="mujoco")
-    protocol = EvalProtocol(dampings=(1.0, 2.0, 4.0, 8.0, 16.0), modes=("det",), episodes=50)
+    protocol = EvalProtocol(dampings=RECIPE_DAMPINGS, modes=("det",), episodes=50)
     expert = evaluate(protocol.task(task), tracking_controller(task), protocol)
     for c in expert["cells"]:
         lines.append(f"| expert (its own pace) | x{c['damping']:g} | " +

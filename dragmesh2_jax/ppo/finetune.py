@@ -79,8 +79,7 @@ FINETUNES = {f.name: f for f in (
              LOAD_BOUND, epochs=PAPER_EPOCHS),
     Finetune("plausible_pace", "plausible_load with a pace target: the part kept within a fifth of its range of the "
              "expert drag's schedule, the force bounded (300 epochs: plausible_load met its budget in 300, not 150)",
-             {"task.reward.constraints": PLAUSIBLE_PACE, "task.reward.lagrangian": "normalized"},
-             epochs=2 * PAPER_EPOCHS),
+             {**LOAD_BOUND, "task.reward.constraints": PLAUSIBLE_PACE}, epochs=2 * PAPER_EPOCHS),
 )}
 
 

@@ -380,8 +380,7 @@ class PullTask:
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state.physics)
         if self.config.expert_prior:  # the residual over the expert drag's action of this step
-            drag = self.params.drag
-            prior = (drag[jnp.minimum(state.info["step"], drag.shape[0] - 1)] - k0.hand_q) / self.config.alpha
+            prior = (self.params.drag[state.info["step"]] - k0.hand_q) / self.config.alpha  # one row per step
             a = jnp.clip(a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)
@@ -421,7 +420,7 @@ class PullTask:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
         p = self.params
         return {"load": jnp.linalg.norm(k.force[:3]),
-                "lag": (p.schedule[jnp.minimum(ev.step, p.schedule.shape[0]) - 1] - ev.q) / (p.q_goal - p.q_start),
+                "lag": (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start),  # one entry per step
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration}

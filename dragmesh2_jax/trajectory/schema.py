@@ -161,8 +161,8 @@ class Trajectory:
         """The target joint where the expert drag, at its own pace, puts it after each of ``steps`` control steps:
         the plan's q of the frame whose hand target the step applies (``drag_targets``), the last held once the drag
         ends."""
-        q = self.target_q[self._drag_frames(control_dt)]
-        return np.concatenate([q, np.full(max(0, steps - len(q)), q[-1])])[:steps].astype(np.float32)
+        frames = self._drag_frames(control_dt)
+        return self.target_q[[frames[min(t, len(frames) - 1)] for t in range(steps)]].astype(np.float32)
 
     def to_json(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "header": self.header,
