@@ -66,17 +66,15 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
     state = reset(jax.random.split(k_env, n), jnp.asarray(r.scales, jnp.float32), jnp.arange(n) % r.episodes)
     acc0 = {k: jnp.zeros(n) for k in ACCUMULATED}
 
-    def body(state, live, acc, key, prev):
+    def body(state, live, acc, key):
         key, k = jax.random.split(key)
         u = r.policy(params, state.obs, k)
         u = u if r.controls == "targets" else jnp.clip(u, -1.0, 1.0)
-        before = kinematics(state.physics)
+        before, prev = kinematics(state.physics), state.info["action"]
         state = step(state, u)
         after = kinematics(state.physics)
         m = state.metrics
-        # the applied action (a target controller's as the action the step derives from its target)
-        a = u if r.controls == "actions" else jnp.clip(
-            (jnp.clip(u, task.params.hand_lo, task.params.hand_hi) - before.hand_q) / task.config.alpha, -1.0, 1.0)
+        a = state.info["action"]  # applied: with the expert prior, the policy's residual plus the prior's action
         dt = task.config.control_dt
 
         def peak(name, value):
@@ -96,26 +94,25 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
                 ("success", "success"), ("detach", "detach"), ("progress", "progress"), ("ret", "episode_return"))},
         }
         record = {"q": m["q"], "hand_q": before.hand_q, "obj_q": before.obj_q, "live": live, "force": before.force}
-        return state, live & ~state.done, acc, key, a, record
+        return state, live & ~state.done, acc, key, record
 
-    live0, prev0 = jnp.ones(n, bool), jnp.zeros_like(kinematics(state.physics).hand_q)  # the effector's DoFs
+    live0 = jnp.ones(n, bool)
     if r.steps is None:
         def loop(c):
-            t, state, live, acc, key, prev = c
-            state, live, acc, key, prev, _ = body(state, live, acc, key, prev)
-            return t + 1, state, live, acc, key, prev
+            t, state, live, acc, key = c
+            state, live, acc, key, _ = body(state, live, acc, key)
+            return t + 1, state, live, acc, key
 
         T = task.config.episode_length
-        _, _, _, acc, _, _ = jax.lax.while_loop(lambda c: (c[0] < T) & c[2].any(), loop,
-                                                (jnp.int32(0), state, live0, acc0, k_act, prev0))
+        _, _, _, acc, _ = jax.lax.while_loop(lambda c: (c[0] < T) & c[2].any(), loop,
+                                             (jnp.int32(0), state, live0, acc0, k_act))
         return {"acc": acc}
 
     def scan_body(c, _):
-        state, live, acc, key, prev = c
-        state, live, acc, key, prev, record = body(state, live, acc, key, prev)
-        return (state, live, acc, key, prev), record
+        state, live, acc, key, record = body(*c)
+        return (state, live, acc, key), record
 
-    (_, _, acc, _, _), records = jax.lax.scan(scan_body, (state, live0, acc0, k_act, prev0), None, length=r.steps)
+    (_, _, acc, _), records = jax.lax.scan(scan_body, (state, live0, acc0, k_act), None, length=r.steps)
     return {"acc": acc, **records}
 
 

@@ -352,7 +352,7 @@ class PullTask:
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
-            "stall": jnp.int32(0), "cooldown": jnp.int32(0),
+            "stall": jnp.int32(0), "cooldown": jnp.int32(0), "action": jnp.zeros(self.action_size, jnp.float32),
         }
         obs = Obs(state=state_obs(c, k, self.params), history=history, aux=self._aux(info),
                   privileged=self._privileged(info, k), step=info["step"])
@@ -416,14 +416,16 @@ class PullTask:
         return Events(d=d, q=q, success=success, detach=detach, terminated=terminated,
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
-    def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray, ev: Events) -> dict[str, jnp.ndarray]:
+    def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray, a_prev: jnp.ndarray,
+                  ev: Events) -> dict[str, jnp.ndarray]:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
         p = self.params
         return {"load": jnp.linalg.norm(k.force[:3]),
                 "lag": (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start),  # one entry per step
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
-                "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration}
+                "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration,
+                "action_change": jnp.where(ev.step > 1, jnp.mean(jnp.abs(a - a_prev)), 0.0)}
 
     def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray, costs):
         """r_t (paper eq. totalreward, with the constraints' term, ARAM or Reconfig when configured), its terms
@@ -444,8 +446,7 @@ class PullTask:
             terms["aram"], stall = aram_penalty(c.reward.aram, p.aram_lambda, stall, ev.d, a,
                                                 ev.q - q_long[-1 - K], delta, p.revolute)
         if c.reward.reconfig is not None:
-            prev_a = state.obs.history[-1, self.action_size:2 * self.action_size]
-            terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, prev_a,
+            terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, info["action"],
                                                          k.hand_qd, delta, K)
         reward = sum(terms.values())
         if c.reward.constraints and c.reward.lagrangian == "normalized":
@@ -459,7 +460,7 @@ class PullTask:
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
-        measures = self._measures(palm_before, k, a, ev)
+        measures = self._measures(palm_before, k, a, info["action"], ev)
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
                              for x in c.reward.constraints], jnp.float32)
         reward, terms, reward_state = self._reward(state, a, k, ev, finite, costs)
@@ -471,7 +472,7 @@ class PullTask:
         new_info = {**info, **reward_state, "step": ev.step, "armed": info["armed"] | (ev.d <= c.d_detach),
                     "q_prev": ev.q, "ctrl": ctrl, "d_ring": ring(info["d_ring"], ev.d),
                     "q_ring": ring(info["q_ring"], ev.q), "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)),
-                    "episode_return": ep_return}
+                    "episode_return": ep_return, "action": a}
         obs = Obs(state=state_obs(self.config, k, self.params), history=history, aux=self._aux(new_info),
                   privileged=self._privileged(new_info, k), step=ev.step)
         metrics = {

@@ -126,6 +126,34 @@ def test_lag_is_how_far_the_part_trails_the_expert_drag_at_its_own_pace():
     assert lag[-1] > 2 * limit and cost_still[-1] > 0
 
 
+def test_action_change_is_how_far_the_applied_action_moved_since_the_last_step():
+    """action_change_t = mean_i |a_t,i - a_(t-1),i| over the 51 channels, 0 at an episode's first step: a hand held
+    at one action costs nothing; one that swings every channel between -0.5 and +0.5 moves 1.0 a step, an excess of
+    (1.0 - limit) / limit; the expert drag, replayed, moves a hundredth of that."""
+    limit = 0.1
+    task = load_task(OBJ, None, backend="mujoco",
+                     reward=RewardConfig(constraints=(Constraint("action_change", limit),)))
+    targets, steps = jnp.asarray(drag_targets(task)), 20
+
+    def run(act):
+        s = task.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
+
+        def body(s, t):
+            s = act(s, t)
+            return s, s.metrics["cost_action_change"]
+
+        return jax.lax.scan(body, s, jnp.arange(steps))[1]
+
+    held, swung, expert = jax.device_get(jax.jit(lambda: (
+        run(lambda s, t: task.step(s, jnp.full(51, 0.3))),
+        run(lambda s, t: task.step(s, jnp.full(51, jnp.where(t % 2 == 0, 0.5, -0.5)))),
+        run(lambda s, t: task.step_target(s, targets[t]))))())
+    np.testing.assert_allclose(held, 0.0, atol=1e-6)
+    assert swung[0] == 0.0
+    np.testing.assert_allclose(swung[1:], (1.0 - limit) / limit, rtol=1e-5)
+    assert expert.max() == 0.0
+
+
 def test_a_normalized_lagrangian_charges_a_detached_episode_every_step_it_had_left():
     """With multipliers (2, 3) and no cost this step, a world that detaches at step t pays 5 (T - t) more than the
     plain reward, all over 1 + 5; a step that does not end in detachment pays nothing more."""

@@ -211,7 +211,8 @@ def test_a_task_on_the_c_engine_never_imports_mjx():
 
 def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_task):
     """expert_prior: the applied action is the policy's plus the tracking_delta baseline's, so zeros follow the drag
-    exactly as that baseline does (the same part and hand motion), and a policy's action moves the hand off it."""
+    exactly as that baseline does (the same part and hand motion, the same applied action in the state: what the
+    evaluation's saturation and smoothness read), and a policy's action moves the hand off it."""
     prior = _task(drawer_task, expert_prior=True)
     delta = tracking_delta_controller(drawer_task)
     policy = delta.make_policy(True)
@@ -222,15 +223,17 @@ def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_tas
 
         def body(s, _):
             s = task.step(s, act(s))
-            return s, (s.metrics["q"], task.kinematics(s.physics).hand_q)
+            return s, (s.metrics["q"], task.kinematics(s.physics).hand_q, s.info["action"])
 
         return jax.lax.scan(body, s, None, length=steps)[1]
 
-    (q_delta, h_delta), (q_zero, h_zero), (_, h_push) = jax.device_get(jax.jit(lambda: (
+    (q_delta, h_delta, a_delta), (q_zero, h_zero, a_zero), (_, h_push, _) = jax.device_get(jax.jit(lambda: (
         run(drawer_task, lambda s: policy(delta.params, s.obs, None)), run(prior, lambda s: jnp.zeros(51)),
         run(prior, lambda s: jnp.full(51, 0.5))))())
     np.testing.assert_allclose(q_zero, q_delta, atol=1e-5)
     np.testing.assert_allclose(h_zero, h_delta, atol=1e-5)
+    np.testing.assert_allclose(a_zero, a_delta, atol=1e-4)
+    assert np.abs(a_zero).max() > 0.1  # the prior's own action, not the policy's zeros
     assert q_zero[-1] > q_zero[0] + 0.1 * float(prior.params.q_goal - prior.params.q_start)  # the drag opens it
     assert np.abs(h_push - h_zero).max() > 0.01
     assert drawer_task.params.drag.shape == (0,) and prior.params.drag.shape == (prior.config.episode_length, 51)
