@@ -21,7 +21,8 @@ from dragmesh2_jax.runs.build import load_task
 
 COLUMNS = (("success_rate", "success", "{:.2f}"), ("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"),
            ("palm_speed_peak_m_s", "palm p95 [m/s]", "{:.2f}"), ("steps_mean", "steps", "{:.0f}"),
-           ("clip099_active", "clip099 active", "{:.2f}"), ("penetration_max_mm", "penetration [mm]", "{:.1f}"))
+           ("clip099_active", "clip099 active", "{:.2f}"), ("penetration_max_mm", "penetration [mm]", "{:.1f}"),
+           ("action_smoothness", "action change", "{:.3f}"))
 
 
 def cell(values: list[float], fmt: str) -> str:

@@ -30,6 +30,9 @@ class PPOConfig:
     clip_value: bool = True  # the value prediction's change from the rollout's clipped to clip_eps
     entropy_coef: float = 0.0  # entropy bonus (none in Table 11)
     bounds_coef: float = 0.01  # c_b, actor bounds loss at |mu| > 1.1
+    # beyond the paper: c_s, the action mean's temporal smoothness loss c_s mean_i (mu_t,i - mu_(t-1),i)^2 over
+    # consecutive steps of an episode (CAPS's temporal term, Mysore et al. 2021), mu_(t-1) the rollout's; 0: none
+    smooth_coef: float = 0.0
     aux_weight: float = 0.01  # w_aux after warm-up (Table 10); 0: no auxiliary loss
     aux_warmup: tuple[int, int] = (10, 40)  # w_aux = 0 before the first epoch, linear to aux_weight by the second
     aux_channel_weights: tuple[float, float, float, float] = (1.0, 1.0, 0.5, 0.5)  # the auxiliary loss per channel
@@ -49,6 +52,8 @@ class PPOConfig:
             raise DragMeshError(f"lr must be finite and > 0, got {self.lr}")
         if not (0 <= self.gamma <= 1 and 0 <= self.gae_lambda <= 1):
             raise DragMeshError(f"gamma and gae_lambda must be in [0, 1], got {self.gamma} and {self.gae_lambda}")
+        if not 0 <= self.smooth_coef < math.inf:
+            raise DragMeshError(f"smooth_coef must be finite and >= 0, got {self.smooth_coef}")
         if not 0 < self.clip_eps < math.inf:
             raise DragMeshError(f"clip_eps must be finite and > 0, got {self.clip_eps}")
 

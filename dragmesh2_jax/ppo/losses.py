@@ -2,7 +2,8 @@
 
 Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds - c_e H + w_aux L_aux, with the clipped surrogate, the
 clipped value loss in the normalised value space, rl_games' bounds loss on the action mean beyond +-1.1, and the
-auxiliary loss in z-scored target space (design §6-§7). KL(old || new) is reported as rl_games computes it.
+auxiliary loss in z-scored target space (design §6-§7); beyond the paper, + c_s L_smooth when ``smooth_coef`` is
+set. KL(old || new) is reported as rl_games computes it.
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ class Batch:
     action: jnp.ndarray
     logp: jnp.ndarray
     mu: jnp.ndarray  # rollout-time action mean (for the exact KL)
+    mu_prev: jnp.ndarray  # rollout-time action mean of the step before (the smoothness loss's target)
+    prev_valid: jnp.ndarray  # 1 where that step is of the same episode and in this rollout
     log_std: jnp.ndarray
     value: jnp.ndarray  # normalised value prediction at rollout time
     advantage: jnp.ndarray
@@ -90,7 +93,12 @@ def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: 
         pred = aux_head(params, z)
         aux = jnp.sum(jnp.asarray(c.aux_channel_weights) * jnp.mean((pred - batch.aux_target) ** 2, axis=0))
     total = pg + c.value_coef * vl + c.bounds_coef * bounds - c.entropy_coef * entropy + w_aux * aux
+    terms = {}
+    if c.smooth_coef > 0:
+        change = jnp.mean((mu - batch.mu_prev) ** 2, axis=-1)
+        terms["smooth_loss"] = jnp.sum(batch.prev_valid * change) / jnp.maximum(jnp.sum(batch.prev_valid), 1.0)
+        total = total + c.smooth_coef * terms["smooth_loss"]
     kl = jnp.mean(jnp.sum(log_std - batch.log_std + (jnp.exp(2 * batch.log_std) + (batch.mu - mu) ** 2)
                           / (2 * jnp.exp(2 * log_std)) - 0.5, axis=-1))  # KL(old || new), as rl_games
     return total, {"loss": total, "policy_loss": pg, "value_loss": vl, "bounds_loss": bounds, "aux_loss": aux,
-                   "kl": kl, "entropy": entropy}
+                   "kl": kl, "entropy": entropy, **terms}

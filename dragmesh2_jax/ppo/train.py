@@ -233,8 +233,12 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
     # values were predicted in the old value normalisation: re-express old predictions and targets in the new
     old_v = flat(traj["value"]) * jnp.sqrt(ts.value_stats.var[0] + 1e-5) + ts.value_stats.mean[0]
     norm = lambda x: (x - vs.mean[0]) / jnp.sqrt(vs.var[0] + 1e-5)  # noqa: E731
+    # each step's previous mean: the step before in this rollout, unless an episode ended there
+    mu_prev = jnp.concatenate([traj["mu"][:1], traj["mu"][:-1]])
+    prev_valid = jnp.concatenate([jnp.zeros_like(traj["done"][:1]), 1.0 - traj["done"][:-1]])
     batch = Batch(state=s_in, history=h_in, privileged=p_in, aux_target=ts.aux_stats.normalize(obs.aux, clip=1e6),
                   action=flat(traj["action"]), logp=flat(traj["logp"]), mu=flat(traj["mu"]),
+                  mu_prev=flat(mu_prev), prev_valid=flat(prev_valid),
                   log_std=flat(traj["log_std"]), value=norm(old_v), advantage=flat(adv), target=norm(flat(ret)))
     ts = ts.replace(value_stats=vs)
     w_aux = c.aux_weight_at(ts.epoch)

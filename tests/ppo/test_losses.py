@@ -69,7 +69,8 @@ def _apply(params, state, history, privileged):
     return params["mu"], params["log_std"], params["v"], None
 
 
-def _setup(ratio, adv, mu=None, log_std=None, value_new=None, value_old=None, target=None):
+def _setup(ratio, adv, mu=None, log_std=None, value_new=None, value_old=None, target=None, mu_prev=None,
+           prev_valid=None):
     """Parameters and a batch in which the new/old probability ratio of sample i is ``ratio[i]`` (the action is
     one standard deviation above the new mean in every dimension)."""
     ratio = np.asarray(ratio, np.float32)
@@ -82,6 +83,8 @@ def _setup(ratio, adv, mu=None, log_std=None, value_new=None, value_old=None, ta
     params = {"mu": mu, "log_std": log_std, "v": zeros if value_new is None else jnp.asarray(value_new, jnp.float32)}
     batch = Batch(state=jnp.zeros((B, 1)), history=jnp.zeros((B, 1, 1)), privileged=jnp.zeros((B, 1)),
                   aux_target=jnp.zeros((B, 1)), action=action, logp=logp_new - jnp.log(ratio), mu=mu,
+                  mu_prev=mu if mu_prev is None else jnp.asarray(mu_prev, jnp.float32),
+                  prev_valid=jnp.ones(B) if prev_valid is None else jnp.asarray(prev_valid, jnp.float32),
                   log_std=jnp.broadcast_to(log_std, mu.shape), value=zeros if value_old is None else value_old,
                   advantage=jnp.asarray(adv, jnp.float32), target=zeros if target is None else target)
     return params, batch
@@ -121,6 +124,19 @@ def test_no_gradient_through_a_sample_clipped_in_the_direction_of_its_advantage(
     grads, _ = jax.grad(_loss, has_aux=True)(params, batch)
     want = -np.asarray(RATIO) * np.asarray(ADV) / 6 * np.array([1, 1, 0, 1, 1, 0])
     np.testing.assert_allclose(np.asarray(grads["mu"])[:, 0], want, rtol=1e-5, atol=1e-7)
+
+
+def test_the_smoothness_loss_is_the_mean_squared_change_of_the_action_mean_over_consecutive_steps_of_an_episode():
+    """Means (0, 0), (1, 1), (2, 0) after (0, 0), (0, 0), (0, 2) with the third a fresh episode's first step: the
+    loss is mean((0, 1)) = 0.5 (the third pair not counted), weighed by smooth_coef in the total; its gradient pulls
+    the mean back towards the step before's; with smooth_coef 0 no term at all."""
+    setup = _setup([1.0] * 3, [0.0] * 3, mu=[[0, 0], [1, 1], [2, 0]], mu_prev=[[0, 0], [0, 0], [0, 2]],
+                   prev_valid=[1, 1, 0])
+    total, info = _loss(*setup, smooth_coef=0.3)
+    assert float(info["smooth_loss"]) == pytest.approx(0.5) and float(total) == pytest.approx(0.3 * 0.5)
+    grads, _ = jax.grad(_loss, has_aux=True)(*setup, smooth_coef=0.3)
+    np.testing.assert_allclose(np.asarray(grads["mu"]), 0.3 * np.array([[0, 0], [1, 1], [0, 0]]) / 2, rtol=1e-5)
+    assert "smooth_loss" not in _loss(*setup)[1]
 
 
 def test_advantage_normalisation_uses_the_minibatch_mean_and_std():
