@@ -64,6 +64,11 @@ CHANGE_BOUND: dict[str, Any] = {
 #: The action mean kept smooth in time (issue 33): PPO's temporal smoothness loss on it (PPOConfig.smooth_coef; its
 #: mean over 51 channels, so 100 puts it beside the surrogate's gradient), chosen on the tuning door against 10.
 SMOOTH: dict[str, Any] = {"ppo.smooth_coef": 100.0}
+#: The expert's pace as a ceiling (issue 33): the part at most a tenth of its range ahead of the expert drag's
+#: schedule (``lead``) in all but 5% of steps, a CMDP constraint beside the load bound; each object's expert sets it.
+LEAD_BOUND: dict[str, Any] = {
+    **LOAD_BOUND, "task.reward.constraints": LOAD_BOUND["task.reward.constraints"] + (
+        Constraint("lead", 0.1, "rate", budget=0.05, lr=2.0, lambda_max=100.0),)}
 #: Residual learning over the expert drag (TaskConfig.expert_prior).
 RESIDUAL: dict[str, Any] = {"task.expert_prior": True}
 #: Contact-load sensors (wrist F/T, palm and phalanx touch) in s_t and in every history token.
@@ -131,6 +136,10 @@ METHODS = {m.name: m for m in (
     Method("hold_blind_residual_smooth", "hold_blind_residual_load with the action mean kept smooth in time (PPO's "
            "temporal smoothness loss): the residual's jerk, not its pull, made the load peaks (RESULTS.md §3b); 150 "
            "epochs, read at its final checkpoint", {**HOLD, **READ_FINAL, **RESIDUAL, **LOAD_BOUND, **SMOOTH}),
+    Method("hold_blind_residual_paced", "hold_blind_residual_smooth no faster than the expert: the part at most a "
+           "tenth of its range ahead of the expert drag's schedule in all but 5% of steps (a second CMDP constraint; "
+           "RESULTS.md §3b); 150 epochs, read at its final checkpoint",
+           {**HOLD, **READ_FINAL, **RESIDUAL, **LEAD_BOUND, **SMOOTH}),
     Method("hold_blind_residual_change", "hold_blind_residual_load with the applied action's change per step bounded "
            "(past 0.2 action units, a second CMDP constraint on the sampled actions): its multiplier reaches its cap "
            "and the budget is never met (RESULTS.md §3b); 150 epochs, read at its final checkpoint",

@@ -420,8 +420,8 @@ class PullTask:
                   ev: Events) -> dict[str, jnp.ndarray]:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
         p = self.params
-        return {"load": jnp.linalg.norm(k.force[:3]),
-                "lag": (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start),  # one entry per step
+        lag = (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start)  # one schedule entry per step
+        return {"load": jnp.linalg.norm(k.force[:3]), "lag": lag, "lead": -lag,
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration,

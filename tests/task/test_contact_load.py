@@ -102,28 +102,37 @@ def test_the_plausible_finetune_trains_the_recipe_and_each_multiplier_takes_one_
                                                          abs=1e-5)
 
 
-def test_lag_is_how_far_the_part_trails_the_expert_drag_at_its_own_pace():
+def test_lag_and_lead_are_how_far_the_part_trails_or_leads_the_expert_drag_at_its_own_pace():
     """lag_t = (schedule[t] - q_t) / (q_goal - q_start), the schedule the plan's target joint after step t of the
-    expert drag: replayed, the expert keeps the part within a tenth of the motion range of it at x1 (no cost past a
-    limit of 0.1); a hand that holds still trails it by the plan's own progress (the excess cost past the limit)."""
+    expert drag, and lead_t = -lag_t: replayed, the expert keeps the part within a tenth of the motion range of it at
+    x1 (no cost past a limit of 0.1 either way); a hand that holds still trails it by the plan's own progress (the
+    excess cost past the limit) and leads it never; the drag replayed at twice its pace leads it."""
     limit = 0.1
-    task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(constraints=(Constraint("lag", limit),)))
+    task = load_task(OBJ, None, backend="mujoco",
+                     reward=RewardConfig(constraints=(Constraint("lag", limit), Constraint("lead", limit))))
     targets, steps, p = jnp.asarray(drag_targets(task)), 90, task.params
 
-    def run(still: bool):
+    def run(act):
         s = task.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
 
         def body(s, t):
-            s = task.step(s, jnp.zeros(51)) if still else task.step_target(s, targets[t])
-            return s, (s.metrics["q"], s.metrics["cost_lag"])
+            s = act(s, t)
+            return s, (s.metrics["q"], s.metrics["cost_lag"], s.metrics["cost_lead"])
 
         return jax.lax.scan(body, s, jnp.arange(steps))[1]
 
-    (q_expert, cost_expert), (q_still, cost_still) = jax.device_get(jax.jit(lambda: (run(False), run(True)))())
-    assert q_expert[-1] > q_expert[0] + 0.2 * (p.q_goal - p.q_start) and cost_expert.max() == 0.0
+    expert, still, fast = jax.device_get(jax.jit(lambda: (
+        run(lambda s, t: task.step_target(s, targets[t])), run(lambda s, t: task.step(s, jnp.zeros(51))),
+        run(lambda s, t: task.step_target(s, targets[jnp.minimum(2 * t, len(targets) - 1)]))))())
+    (q_expert, lag_expert, lead_expert), (q_still, cost_still, lead_still) = expert, still
+    assert q_expert[-1] > q_expert[0] + 0.2 * (p.q_goal - p.q_start)
+    assert lag_expert.max() == 0.0 and lead_expert.max() == 0.0 and lead_still.max() == 0.0
     lag = (np.asarray(p.schedule[:steps]) - q_still) / float(p.q_goal - p.q_start)
     np.testing.assert_allclose(cost_still, np.maximum(lag - limit, 0.0) / limit, rtol=1e-4, atol=1e-4)
     assert lag[-1] > 2 * limit and cost_still[-1] > 0
+    lead = (fast[0] - np.asarray(p.schedule[:steps])) / float(p.q_goal - p.q_start)
+    np.testing.assert_allclose(fast[2], np.maximum(lead - limit, 0.0) / limit, rtol=1e-4, atol=1e-4)
+    assert fast[2].max() > 0
 
 
 def test_action_change_is_how_far_the_applied_action_moved_since_the_last_step():
