@@ -25,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dragmesh2_jax.policies.controller import Policy
-from dragmesh2_jax.task.env import PullTask, TaskData
+from dragmesh2_jax.task.env import PullTask, TaskData, applied_action
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
 ACCUMULATED = ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret", "overflow", "load_peak",
@@ -70,11 +70,11 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
         key, k = jax.random.split(key)
         u = r.policy(params, state.obs, k)
         u = u if r.controls == "targets" else jnp.clip(u, -1.0, 1.0)
-        before, prev = kinematics(state.physics), state.info["action"]
+        before, prev = kinematics(state.physics), applied_action(state.obs, task.action_size)
         state = step(state, u)
         after = kinematics(state.physics)
         m = state.metrics
-        a = state.info["action"]  # applied: with the expert prior, the policy's residual plus the prior's action
+        a = applied_action(state.obs, task.action_size)
         dt = task.config.control_dt
 
         def peak(name, value):

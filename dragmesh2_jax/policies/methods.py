@@ -55,20 +55,24 @@ HOLD_BLIND: dict[str, Any] = {**HOLD, **READ_FINAL, "schedule.epochs": RECIPE_EP
 LOAD_BOUND: dict[str, Any] = {"task.reward.constraints": (Constraint("load", RewardConfig.f_hold, "rate", budget=0.02,
                                                                      lr=2.0, lambda_max=100.0),),
                               "task.reward.lagrangian": "normalized"}
+
+
+def beside_load_bound(measure: str, limit: float, cost: str, budget: float) -> dict[str, Any]:
+    """LOAD_BOUND and a second constraint on ``measure``, its multiplier moving as the load's (lr 2, cap 100)."""
+    return {**LOAD_BOUND, "task.reward.constraints": LOAD_BOUND["task.reward.constraints"] + (
+        Constraint(measure, limit, cost, budget=budget, lr=2.0, lambda_max=100.0),)}
+
+
 #: The applied action's change bounded (issue 33): its mean change per step |a_t - a_(t-1)| past 0.2 action units
 #: (the sampled action's own noise at the policy's initial spread is about 0.15; the expert drag moves 0.005, its
 #: policies 0.45-0.53) a CMDP constraint on the excess, within 5% of the limit by the end, with the load bound.
-CHANGE_BOUND: dict[str, Any] = {
-    **LOAD_BOUND, "task.reward.constraints": LOAD_BOUND["task.reward.constraints"] + (
-        Constraint("action_change", 0.2, "excess", budget=0.05, lr=2.0, lambda_max=100.0),)}
+CHANGE_BOUND = beside_load_bound("action_change", 0.2, "excess", budget=0.05)
 #: The action mean kept smooth in time (issue 33): PPO's temporal smoothness loss on it (PPOConfig.smooth_coef; its
 #: mean over 51 channels, so 100 puts it beside the surrogate's gradient), chosen on the tuning door against 10.
 SMOOTH: dict[str, Any] = {"ppo.smooth_coef": 100.0}
 #: The expert's pace as a ceiling (issue 33): the part at most a tenth of its range ahead of the expert drag's
 #: schedule (``lead``) in all but 5% of steps, a CMDP constraint beside the load bound; each object's expert sets it.
-LEAD_BOUND: dict[str, Any] = {
-    **LOAD_BOUND, "task.reward.constraints": LOAD_BOUND["task.reward.constraints"] + (
-        Constraint("lead", 0.1, "rate", budget=0.05, lr=2.0, lambda_max=100.0),)}
+LEAD_BOUND = beside_load_bound("lead", 0.1, "rate", budget=0.05)
 #: Residual learning over the expert drag (TaskConfig.expert_prior).
 RESIDUAL: dict[str, Any] = {"task.expert_prior": True}
 #: Contact-load sensors (wrist F/T, palm and phalanx touch) in s_t and in every history token.

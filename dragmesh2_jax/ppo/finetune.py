@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.policies.methods import LOAD_BOUND
+from dragmesh2_jax.policies.methods import LOAD_BOUND, beside_load_bound
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.task.config import AramConfig, Constraint, ReconfigConfig, RewardConfig
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
@@ -30,18 +30,17 @@ PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=1.0, lamb
                   for measure, limit, budget in (("palm_speed", PALM_SPEED_LIMIT, 0.02),
                                                  ("load", RewardConfig.f_hold, 0.02),
                                                  ("wrist_saturation", CLIP_LEVEL, SATURATION_BUDGET)))
-#: ``plausible_load``: the wrist load alone (issue 33's target bounds the load, not the pace; under ``plausible`` the
-#: pace bound kept the door slow enough to time out at x8, and with three multipliers capped the costs stayed over
-#: budget), its multiplier moving twice as fast as ``plausible``'s under ``plausible_cap100``'s cap.
-PLAUSIBLE_LOAD = LOAD_BOUND["task.reward.constraints"]
-#: ``plausible_pace``: ``plausible_load`` with a pace target from the expert drag: the part at most PACE_LAG of its
+#: ``plausible_load`` (methods.LOAD_BOUND): the wrist load alone (issue 33's target bounds the load, not the pace;
+#: under ``plausible`` the pace bound kept the door slow enough to time out at x8, and with three multipliers capped
+#: the costs stayed over budget), its multiplier moving twice as fast as ``plausible``'s under ``plausible_cap100``'s
+#: cap. ``plausible_pace``: ``plausible_load`` with a pace target from the expert drag: the part at most PACE_LAG of its
 #: motion range behind where the expert's plan has it at each step (``lag`` in ``config.MEASURES``) in all but
 #: LAG_BUDGET of the steps. The load bound alone left the policy pulling too little to keep up at x8 (45 N where the
 #: expert pulls 88 N steadily: RESULTS.md §3b); together they admit the expert's own pull (replayed from 8 perturbed
 #: starts on the tuning door at x1-x8: no step past the lag limit, 0.1-0.4% of its steps past 100 N).
 PACE_LAG = 0.2
 LAG_BUDGET = 0.05
-PLAUSIBLE_PACE = PLAUSIBLE_LOAD + (Constraint("lag", PACE_LAG, "rate", budget=LAG_BUDGET, lr=2.0, lambda_max=100.0),)
+PLAUSIBLE_PACE = beside_load_bound("lag", PACE_LAG, "rate", budget=LAG_BUDGET)
 
 
 @dataclass(frozen=True)
@@ -79,7 +78,7 @@ FINETUNES = {f.name: f for f in (
              LOAD_BOUND, epochs=PAPER_EPOCHS),
     Finetune("plausible_pace", "plausible_load with a pace target: the part kept within a fifth of its range of the "
              "expert drag's schedule, the force bounded (300 epochs: plausible_load met its budget in 300, not 150)",
-             {**LOAD_BOUND, "task.reward.constraints": PLAUSIBLE_PACE}, epochs=2 * PAPER_EPOCHS),
+             PLAUSIBLE_PACE, epochs=2 * PAPER_EPOCHS),
 )}
 
 

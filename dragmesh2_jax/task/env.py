@@ -75,6 +75,12 @@ from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 TOKEN_SIZE = 2 * NUM_DOFS
+
+
+def applied_action(obs: Obs, action_size: int) -> jnp.ndarray:
+    """The action the last step applied (with ``expert_prior``, the policy's residual plus the prior's): a_{t-1} of
+    the newest history token [e_t, a_{t-1}, ...], zeros at an episode's start."""
+    return obs.history[..., -1, action_size:2 * action_size]
 AUX_SIZE = 4
 PRIVILEGED_SIZE = len(randomize.RANDOMIZERS) + FORCE_SIZE
 
@@ -352,7 +358,7 @@ class PullTask:
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
-            "stall": jnp.int32(0), "cooldown": jnp.int32(0), "action": jnp.zeros(self.action_size, jnp.float32),
+            "stall": jnp.int32(0), "cooldown": jnp.int32(0),
         }
         obs = Obs(state=state_obs(c, k, self.params), history=history, aux=self._aux(info),
                   privileged=self._privileged(info, k), step=info["step"])
@@ -446,7 +452,8 @@ class PullTask:
             terms["aram"], stall = aram_penalty(c.reward.aram, p.aram_lambda, stall, ev.d, a,
                                                 ev.q - q_long[-1 - K], delta, p.revolute)
         if c.reward.reconfig is not None:
-            terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, info["action"],
+            prev_a = applied_action(state.obs, self.action_size)
+            terms["reconfig"], cooldown = reconfig_bonus(c.reward.reconfig, cooldown, d_long, q_long, a, prev_a,
                                                          k.hand_qd, delta, K)
         reward = sum(terms.values())
         if c.reward.constraints and c.reward.lagrangian == "normalized":
@@ -460,7 +467,7 @@ class PullTask:
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
-        measures = self._measures(palm_before, k, a, info["action"], ev)
+        measures = self._measures(palm_before, k, a, applied_action(state.obs, self.action_size), ev)
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
                              for x in c.reward.constraints], jnp.float32)
         reward, terms, reward_state = self._reward(state, a, k, ev, finite, costs)
@@ -472,7 +479,7 @@ class PullTask:
         new_info = {**info, **reward_state, "step": ev.step, "armed": info["armed"] | (ev.d <= c.d_detach),
                     "q_prev": ev.q, "ctrl": ctrl, "d_ring": ring(info["d_ring"], ev.d),
                     "q_ring": ring(info["q_ring"], ev.q), "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)),
-                    "episode_return": ep_return, "action": a}
+                    "episode_return": ep_return}
         obs = Obs(state=state_obs(self.config, k, self.params), history=history, aux=self._aux(new_info),
                   privileged=self._privileged(new_info, k), step=ev.step)
         metrics = {

@@ -14,7 +14,7 @@ from dragmesh2_jax.baselines.tracking import tracking_delta_controller
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import TaskConfig
-from dragmesh2_jax.task.env import AUX_SIZE, TOKEN_SIZE, PullTask, make_batched
+from dragmesh2_jax.task.env import AUX_SIZE, TOKEN_SIZE, PullTask, applied_action, make_batched
 from dragmesh2_jax.task.observation import STATE_SIZE
 from dragmesh2_jax.task.protocol import METRICS, observation_spec
 from dragmesh2_jax.task.rewards import TERM_PREFIX, term_names
@@ -211,8 +211,8 @@ def test_a_task_on_the_c_engine_never_imports_mjx():
 
 def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_task):
     """expert_prior: the applied action is the policy's plus the tracking_delta baseline's, so zeros follow the drag
-    exactly as that baseline does (the same part and hand motion, the same applied action in the state: what the
-    evaluation's saturation and smoothness read), and a policy's action moves the hand off it."""
+    exactly as that baseline does (the same part and hand motion, the same applied action in the history: what the
+    evaluation's smoothness reads), and a policy's action moves the hand off it."""
     prior = _task(drawer_task, expert_prior=True)
     delta = tracking_delta_controller(drawer_task)
     policy = delta.make_policy(True)
@@ -223,7 +223,7 @@ def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_tas
 
         def body(s, _):
             s = task.step(s, act(s))
-            return s, (s.metrics["q"], task.kinematics(s.physics).hand_q, s.info["action"])
+            return s, (s.metrics["q"], task.kinematics(s.physics).hand_q, applied_action(s.obs, task.action_size))
 
         return jax.lax.scan(body, s, None, length=steps)[1]
 
