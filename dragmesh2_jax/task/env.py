@@ -78,8 +78,7 @@ TOKEN_SIZE = 2 * NUM_DOFS
 
 
 def applied_action(obs: Obs, action_size: int) -> jnp.ndarray:
-    """The action the last step applied (with ``expert_prior``, the policy's residual plus the prior's): a_{t-1} of
-    the newest history token [e_t, a_{t-1}, ...], zeros at an episode's start."""
+    """a_{t-1} of the newest history token [e_t, a_{t-1}, ...]: the action the last step applied (prior included)."""
     return obs.history[..., -1, action_size:2 * action_size]
 AUX_SIZE = 4
 PRIVILEGED_SIZE = len(randomize.RANDOMIZERS) + FORCE_SIZE
