@@ -24,7 +24,7 @@ import numpy as np
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics.base import Start
-from dragmesh2_jax.scene import Scene
+from dragmesh2_jax.scene import FORCE_SENSORS, Scene
 
 #: Constraint rows of one contact: condim 3 under the pyramidal cone is 2 (condim - 1) rows.
 ROWS_PER_CONTACT = 4
@@ -86,6 +86,24 @@ def probe(scene: Scene, starts: list[Start], targets: np.ndarray, substeps: int,
                     mujoco.mj_step(m, d)
                     most = [max(most[0], d.ncon), max(most[1], d.nefc)]
     return most[0], most[1]
+
+
+def peak_load(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settle_substeps: int,
+              until: float) -> float:
+    """The expert's peak wrist load (N): ``targets`` (one hand PD target per control step) replayed on the C engine at
+    nominal damping from ``start``, the wrist force read after each control step, up to the step the target joint
+    reaches ``until`` (an episode's success), as ``evaluation.envelope`` reads the expert at its own pace."""
+    d = scene.settled_state(*start, settle_substeps)
+    force = scene.model.sensor(FORCE_SENSORS[0]).adr[0] + np.arange(3)
+    peak = 0.0
+    for target in targets:
+        d.ctrl[scene.ids.hand_actuators] = target
+        for _ in range(substeps):
+            mujoco.mj_step(scene.model, d)
+        peak = max(peak, float(np.linalg.norm(d.sensordata[force])))
+        if d.qpos[scene.ids.target_qpos] >= until:
+            break
+    return peak
 
 
 def pairs(scene: Scene) -> list[tuple[str, str]]:

@@ -58,7 +58,8 @@ class ReconfigConfig:
     cooldown: int = 10  # steps
 
 
-#: What a constraint bounds, per control step: the wrist's pull |F_wrist| (N), how far the part trails the expert drag
+#: What a constraint bounds, per control step: the wrist's pull |F_wrist| (N) or the same in units of the expert drag's
+#: peak pull on the object (``relative_load``: task/expert.py), how far the part trails the expert drag
 #: at its own pace (``lag``: the plan's target joint at this step less the part's, as a fraction of q_goal - q_start;
 #: negative when ahead) or leads it (``lead``, its negative: a pull faster than the expert's), the palm's speed
 #: (m/s), the largest |a_i| over the DoFs that move and over the wrist's six alone (action units; above CLIP_LEVEL
@@ -66,7 +67,8 @@ class ReconfigConfig:
 #: saturates an active DoF in every step: RESULTS.md §3b), the deepest hand-object penetration (m) and how far the
 #: applied action moved since the last step, mean |a_t - a_(t-1)| over the 51 channels (action units, 0 at an
 #: episode's first step; the evaluation's ``action_smoothness`` per step).
-MEASURES = ("load", "lag", "lead", "palm_speed", "saturation", "wrist_saturation", "penetration", "action_change")
+MEASURES = ("load", "relative_load", "lag", "lead", "palm_speed", "saturation", "wrist_saturation", "penetration",
+            "action_change")
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit).
 COSTS = ("excess", "rate")

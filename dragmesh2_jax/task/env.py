@@ -57,6 +57,7 @@ from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
+from dragmesh2_jax.task.expert import expert_drag, expert_load
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import (
@@ -102,6 +103,7 @@ class TaskParams:
     long_sign: jnp.ndarray  # +-1: the handle's long axis as the observation reads it (task/observation.py)
     schedule: jnp.ndarray  # (episode_length,) the target joint after each step of the expert drag at its own pace
     drag: jnp.ndarray  # (episode_length, 51) the expert drag's hand targets per step (TaskConfig.expert_prior), or (0,)
+    expert_load: jnp.ndarray  # N, the expert drag's peak wrist load: the relative_load measure's unit (task/expert.py)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
     # the object's probability of being drawn at a reset of an object mix (task/mix.py; set there by the trainer)
@@ -141,17 +143,6 @@ def check_trajectory_matches(scene: Scene, traj: Trajectory) -> None:
                             "runs.build.load_task does)")
     if not traj.q_max - traj.q_min > 1e-6:
         raise DragMeshError("trajectory never moves its target joint (zero motion range)")
-
-
-def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarray:
-    """The expert drag's hand target per control step of an episode (the last held) under ``expert_prior``; else
-    nothing (an empty array)."""
-    if not config.expert_prior:
-        return np.zeros(0, np.float32)
-    if scene.config.effector != "hand":
-        raise DragMeshError("expert_prior needs the hand (the expert drag moves the hand, not a gripper)")
-    targets = traj.drag_targets(config.control_dt)
-    return targets[np.minimum(np.arange(config.episode_length), len(targets) - 1)]
 
 
 def substeps_of(scene: Scene, config: TaskConfig) -> int:
@@ -222,6 +213,7 @@ class PullTask:
                             long_sign=jnp.float32(sign),
                             schedule=jnp.asarray(traj.drag_schedule(config.control_dt, config.episode_length)),
                             drag=jnp.asarray(expert_drag(scene, traj, config)),
+                            expert_load=jnp.float32(expert_load(scene, traj, config, start, self.backend.substeps)),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
@@ -426,7 +418,8 @@ class PullTask:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
         p = self.params
         lag = (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start)  # one schedule entry per step
-        return {"load": jnp.linalg.norm(k.force[:3]), "lag": lag, "lead": -lag,
+        load = jnp.linalg.norm(k.force[:3])
+        return {"load": load, "relative_load": load / p.expert_load, "lag": lag, "lead": -lag,
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration,

@@ -1,0 +1,49 @@
+"""The expert drag as the task reads it, beyond the paper (issue 33): the prior a residual policy adds to
+(``TaskConfig.expert_prior``) and the unit of the ``relative_load`` measure, the expert's own peak wrist load on the
+object, so that one constraint bounds every object's pull by what its expert needs."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.physics import contacts
+from dragmesh2_jax.physics.base import Start
+from dragmesh2_jax.scene import Scene
+from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.starts import reset_starts
+from dragmesh2_jax.trajectory.schema import Trajectory
+
+#: The measure whose unit is the expert's peak wrist load (``config.MEASURES``).
+RELATIVE_LOAD = "relative_load"
+
+
+def held_targets(traj: Trajectory, config: TaskConfig) -> np.ndarray:
+    """The expert drag's hand target for each control step of an episode, the last one held."""
+    targets = traj.drag_targets(config.control_dt)
+    return targets[np.minimum(np.arange(config.episode_length), len(targets) - 1)]
+
+
+def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarray:
+    """The expert drag's hand target per control step of an episode under ``expert_prior``; else nothing (an empty
+    array)."""
+    if not config.expert_prior:
+        return np.zeros(0, np.float32)
+    if scene.config.effector != "hand":
+        raise DragMeshError("expert_prior needs the hand (the expert drag moves the hand, not a gripper)")
+    return held_targets(traj, config)
+
+
+def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, start: Start | None, substeps: int) -> float:
+    """The expert drag's peak wrist load (N) at nominal damping from the task's unperturbed start (``start``, else
+    the expert grasp), up to success: probed only when a constraint reads ``relative_load`` (else NaN, never read)."""
+    if not any(c.measure == RELATIVE_LOAD for c in config.reward.constraints):
+        return math.nan
+    if scene.config.effector != "hand":
+        raise DragMeshError(f"{RELATIVE_LOAD} needs the hand (the expert drag moves the hand, not a gripper)")
+    lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
+    nominal = reset_starts(scene, traj, None, start, config.rho)[0]
+    return contacts.peak_load(scene, nominal, np.clip(held_targets(traj, config), lo, hi), substeps,
+                              config.settle_substeps, traj.q_done_at(config.rho))

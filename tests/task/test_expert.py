@@ -1,0 +1,62 @@
+"""The expert drag as the task reads it (task/expert.py): the residual's prior and the relative load's unit."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from dragmesh2_jax.assets.procedural import packaged_object
+from dragmesh2_jax.baselines.tracking import tracking_controller
+from dragmesh2_jax.evaluation.evaluate import envelope
+from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.task.config import Constraint, RewardConfig
+from dragmesh2_jax.task.env import make_batched
+
+DOOR = str(packaged_object("door_cabinet_0000"))
+
+
+@pytest.fixture(scope="module")
+def door():
+    """The packaged door from the expert's exact grasp, its pull bounded by the expert's own (C engine)."""
+    bound = RewardConfig(constraints=(Constraint("relative_load", 1.01, "rate"),))
+    return load_task(DOOR, None, backend="mujoco", reward=bound)
+
+
+def test_the_relative_loads_unit_is_the_experts_peak_the_envelope_reports(door):
+    """The probe replays the expert drag at its own pace and x1 from the grasp, as the envelope's own cell does."""
+    (own,) = envelope(door, paces=(1.0,), dampings=(1.0,))
+    assert float(door.params.expert_load) == pytest.approx(own["wrist_load_peak_n"], rel=1e-3) and own["opened"]
+
+
+def test_a_task_without_the_measure_does_not_probe_it():
+    assert math.isnan(float(load_task(DOOR, None, backend="mujoco").params.expert_load))
+
+
+def test_the_expert_replayed_never_pulls_past_its_own_peak_and_a_yank_does(door):
+    """At x1 the expert's relative load peaks at 1 (no step past the 1.01 limit); a hand thrown back at full action
+    pulls past it."""
+    reset, step = make_batched(door)
+    c = tracking_controller(door)
+    policy = c.make_policy(True)
+
+    def run(fixed):
+        s = reset(jax.random.split(jax.random.PRNGKey(0), 1), jnp.ones(1))
+
+        def body(s, _):
+            if fixed is None:
+                s = jax.vmap(door.step_target)(s, policy(c.params, s.obs, None))
+            else:
+                s = step(s, jnp.broadcast_to(fixed, (1, 51)))
+            return s, (s.metrics["cost_relative_load"], s.done)
+
+        return jax.lax.scan(body, s, None, length=door.config.episode_length)[1]
+
+    cost, done = jax.device_get(jax.jit(lambda: run(None))())
+    live = np.cumsum(done[:, 0]) - done[:, 0] == 0  # up to and including the step that ends the episode
+    assert cost[live].max() == 0.0
+    yank = np.zeros(51, np.float32)
+    yank[:3] = -1.0  # the wrist's translation, full speed one way
+    cost, _ = jax.device_get(jax.jit(lambda: run(yank))())
+    assert cost.max() == 1.0
