@@ -273,9 +273,10 @@ def test_help_shows_every_default():
             if a.default is not None or set(a.option_strings) & named.get(sub.prog, set()):
                 assert "default" in shown, (sub.prog, a.option_strings)
     assert "(default: auto)" in train_parser().format_help()
-    flags = tree_help(method_defaults("recommended"))  # the configuration's, under the method given
+    flags = tree_help(method_defaults("hold_blind"))  # the configuration's, under the method given
     assert "(default: 300)" in flags["--epochs"] and "(default: 0.05)" in flags["--task.alpha"]
     assert "(default: 64)" in flags["--num-envs"] and "(default: 42)" in flags["--seed"]
+    assert "(default: 100.0)" in tree_help(method_defaults("recommended"))["--ppo.smooth-coef"]
 
 
 def test_envelope_prints_the_cells_and_rejects_a_bad_pace(capsys):

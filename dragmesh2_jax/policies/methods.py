@@ -12,10 +12,13 @@ Beyond the paper (its §5 asks for a richer contact interface), each ablated aga
 load), ``pica_d14`` (damping randomised over [1, 4], the reference's drand14), and ``pica_load``, which combines them
 and trains from perturbed starts, and ``pica_grip``: contact-load observation, privileged critic and a load-budget
 reward, with the paper's damping range. ``hold`` is PICA trained where the load is (x1-x8, contact load observed),
-``hold_blind`` (``--method recommended``, the project's recipe for holding a part under load) the same without force
-or touch sensing, ``hold_grip`` with the fixed load-budget reward, ``hold_cmdp`` with the wrist load as a CMDP
-constraint (its penalty weight a Lagrange multiplier) and ``hold_blind_cmdp`` the constraint without the sensing;
-``hold_blind_handle`` is the recipe with the observation that transfers across objects (``task/observation.py``).
+``hold_blind`` the same without force or touch sensing, ``hold_grip`` with the fixed load-budget reward,
+``hold_cmdp`` with the wrist load as a CMDP constraint (its penalty weight a Lagrange multiplier) and
+``hold_blind_cmdp`` the constraint without the sensing;
+``hold_blind_handle`` is hold_blind with the observation that transfers across objects (``task/observation.py``).
+``hold_blind_residual_smooth`` (``--method recommended``, the project's recipe, issue 33) is hold_blind as a
+smooth residual over the expert drag with its wrist load bounded: it holds the validation doors at x1-x8 nearest the
+expert's force (RESULTS.md §3b).
 The task itself (action interface, success threshold, damping multipliers, episode length) is the paper's for every
 method.
 """
@@ -31,7 +34,7 @@ from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig
 
 #: The recipe's evaluation cells: its training range x1-x8 and x16 beyond it (out of its training distribution).
 RECIPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
-RECIPE_EPOCHS = 300  # twice the paper's budget: where it holds the validation doors at x1-x4 (RESULTS.md §3)
+HOLD_BLIND_EPOCHS = 300  # twice the paper's budget: where hold_blind holds the validation doors at x1-x4 (RESULTS §3)
 #: The generalist's budget: 10 M env steps at the default batch of 64 worlds x 32 steps (issue 36).
 GENERALIST_ENV_STEPS = 10_000_000
 GENERALIST_EPOCHS = 4883
@@ -49,7 +52,7 @@ HOLD: dict[str, Any] = {"network.critic": "privileged", "task.damping_range": (1
 #: A policy trained over x1-x8 read at its final checkpoint and evaluated over its training range and x16 beyond it.
 READ_FINAL: dict[str, Any] = {"schedule.checkpoint": "final", "schedule.dampings": RECIPE_DAMPINGS}
 #: The recipe: PICA-Hold without the contact-load sensors, twice the paper's budget, read at its final checkpoint.
-HOLD_BLIND: dict[str, Any] = {**HOLD, **READ_FINAL, "schedule.epochs": RECIPE_EPOCHS}
+HOLD_BLIND: dict[str, Any] = {**HOLD, **READ_FINAL, "schedule.epochs": HOLD_BLIND_EPOCHS}
 #: The wrist load bounded to what the grasp holds (issue 33): at most 2% of steps past RewardConfig.f_hold, a CMDP
 #: constraint whose multiplier moves at lr 2 up to 100, in the normalised Lagrangian (RESULTS.md §3b).
 LOAD_BOUND: dict[str, Any] = {"task.reward.constraints": (Constraint("load", RewardConfig.f_hold, "rate", budget=0.02,
@@ -162,8 +165,8 @@ METHODS = {m.name: m for m in (
            "(the load is seen by the critic and the cost, never by the policy)",
            {**HOLD, "task.reward.constraints": (Constraint(),)}),
 )}
-#: ``--method recommended``: the project's best recipe (RESULTS.md says why), wherever a method is taken.
-RECOMMENDED = "hold_blind"
+#: ``--method recommended``: the project's best recipe (RESULTS.md §3b says why), wherever a method is taken.
+RECOMMENDED = "hold_blind_residual_smooth"
 
 
 def resolve(name: str) -> str:
