@@ -88,18 +88,20 @@ def probe(scene: Scene, starts: list[Start], targets: np.ndarray, substeps: int,
     return most[0], most[1]
 
 
-def peak_load(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settle_substeps: int,
-              until: float) -> float:
+def peak_load(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settle_substeps: int, until: float,
+              damping: float = 1.0) -> float:
     """The expert's peak wrist load (N): ``targets`` (one hand PD target per control step) replayed on the C engine at
-    nominal damping from ``start``, the wrist force read after each control step, up to the step the target joint
-    reaches ``until`` (an episode's success), as ``evaluation.envelope`` reads the expert at its own pace."""
-    d = scene.settled_state(*start, settle_substeps)
-    force = scene.model.sensor(FORCE_SENSORS[0]).adr[0] + np.arange(3)
+    ``damping`` x nominal from ``start``, the wrist force read after each control step, up to the step the target
+    joint reaches ``until`` (an episode's success), as ``evaluation.envelope`` reads the expert at its own pace."""
+    m = copy.copy(scene.model)
+    m.dof_damping[scene.ids.target_dof] = scene.model.dof_damping[scene.ids.target_dof] * damping
+    d = scene.settled_state(*start, settle_substeps)  # settled at nominal damping, as a reset
+    force = m.sensor(FORCE_SENSORS[0]).adr[0] + np.arange(3)
     peak = 0.0
     for target in targets:
         d.ctrl[scene.ids.hand_actuators] = target
         for _ in range(substeps):
-            mujoco.mj_step(scene.model, d)
+            mujoco.mj_step(m, d)
         peak = max(peak, float(np.linalg.norm(d.sensordata[force])))
         if d.qpos[scene.ids.target_qpos] >= until:
             break

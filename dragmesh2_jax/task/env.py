@@ -57,7 +57,7 @@ from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
-from dragmesh2_jax.task.expert import expert_drag, expert_load
+from dragmesh2_jax.task.expert import expert_drag, expert_load, load_unit
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import (
@@ -103,7 +103,7 @@ class TaskParams:
     long_sign: jnp.ndarray  # +-1: the handle's long axis as the observation reads it (task/observation.py)
     schedule: jnp.ndarray  # (episode_length,) the target joint after each step of the expert drag at its own pace
     drag: jnp.ndarray  # (episode_length, 51) the expert drag's hand targets per step (TaskConfig.expert_prior), or (0,)
-    expert_load: jnp.ndarray  # N, the expert drag's peak wrist load: the relative_load measure's unit (task/expert.py)
+    expert_load: jnp.ndarray  # (4,) N, the expert drag's peak wrist load at x1-x8, relative_load's unit (task/expert)
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
     # the object's probability of being drawn at a reset of an object mix (task/mix.py; set there by the trainer)
@@ -213,7 +213,7 @@ class PullTask:
                             long_sign=jnp.float32(sign),
                             schedule=jnp.asarray(traj.drag_schedule(config.control_dt, config.episode_length)),
                             drag=jnp.asarray(expert_drag(scene, traj, config)),
-                            expert_load=jnp.float32(expert_load(scene, traj, config, start, self.backend.substeps)),
+                            expert_load=jnp.asarray(expert_load(scene, traj, config, start, self.backend.substeps)),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
@@ -413,13 +413,13 @@ class PullTask:
         return Events(d=d, q=q, success=success, detach=detach, terminated=terminated,
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
-    def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray, a_prev: jnp.ndarray,
-                  ev: Events) -> dict[str, jnp.ndarray]:
+    def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray, a_prev: jnp.ndarray, ev: Events,
+                  damping: jnp.ndarray) -> dict[str, jnp.ndarray]:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
         p = self.params
         lag = (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start)  # one schedule entry per step
         load = jnp.linalg.norm(k.force[:3])
-        return {"load": load, "relative_load": load / p.expert_load, "lag": lag, "lead": -lag,
+        return {"load": load, "relative_load": load / load_unit(p.expert_load, damping), "lag": lag, "lead": -lag,
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration,
@@ -459,7 +459,8 @@ class PullTask:
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
-        measures = self._measures(palm_before, k, a, applied_action(state.obs, self.action_size), ev)
+        measures = self._measures(palm_before, k, a, applied_action(state.obs, self.action_size), ev,
+                                  info["scales"][randomize.DAMPING])
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
                              for x in c.reward.constraints], jnp.float32)
         reward, terms, reward_state = self._reward(state, a, k, ev, finite, costs)

@@ -1,11 +1,10 @@
 """The expert drag as the task reads it, beyond the paper (issue 33): the prior a residual policy adds to
 (``TaskConfig.expert_prior``) and the unit of the ``relative_load`` measure, the expert's own peak wrist load on the
-object, so that one constraint bounds every object's pull by what its expert needs."""
+object at the world's damping, so that one constraint bounds every object's pull by what its expert needs there."""
 
 from __future__ import annotations
 
-import math
-
+import jax.numpy as jnp
 import numpy as np
 
 from dragmesh2_jax.errors import DragMeshError
@@ -18,6 +17,9 @@ from dragmesh2_jax.trajectory.schema import Trajectory
 
 #: The measure whose unit is the expert's peak wrist load (``config.MEASURES``).
 RELATIVE_LOAD = "relative_load"
+#: The damping multipliers the expert's load is probed at (the recipe's training range, an octave apart); between
+#: them it is interpolated in log-damping, beyond them held at the nearest.
+LOAD_DAMPINGS = (1.0, 2.0, 4.0, 8.0)
 
 
 def held_targets(traj: Trajectory, config: TaskConfig) -> np.ndarray:
@@ -36,14 +38,22 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
     return held_targets(traj, config)
 
 
-def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, start: Start | None, substeps: int) -> float:
-    """The expert drag's peak wrist load (N) at nominal damping from the task's unperturbed start (``start``, else
-    the expert grasp), up to success: probed only when a constraint reads ``relative_load`` (else NaN, never read)."""
+def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, start: Start | None, substeps: int) -> np.ndarray:
+    """The expert drag's peak wrist load (N) at each of ``LOAD_DAMPINGS`` from the task's unperturbed start
+    (``start``, else the expert grasp), up to success: probed only when a constraint reads ``relative_load`` (else
+    NaN, never read)."""
     if not any(c.measure == RELATIVE_LOAD for c in config.reward.constraints):
-        return math.nan
+        return np.full(len(LOAD_DAMPINGS), np.nan, np.float32)
     if scene.config.effector != "hand":
         raise DragMeshError(f"{RELATIVE_LOAD} needs the hand (the expert drag moves the hand, not a gripper)")
     lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
     nominal = reset_starts(scene, traj, None, start, config.rho)[0]
-    return contacts.peak_load(scene, nominal, np.clip(held_targets(traj, config), lo, hi), substeps,
-                              config.settle_substeps, traj.q_done_at(config.rho))
+    targets = np.clip(held_targets(traj, config), lo, hi)
+    return np.asarray([contacts.peak_load(scene, nominal, targets, substeps, config.settle_substeps,
+                                          traj.q_done_at(config.rho), damping) for damping in LOAD_DAMPINGS],
+                      np.float32)
+
+
+def load_unit(expert_load: jnp.ndarray, damping: jnp.ndarray) -> jnp.ndarray:
+    """The expert's peak wrist load at a world's damping multiplier (``expert_load`` at ``LOAD_DAMPINGS``)."""
+    return jnp.interp(jnp.log2(damping), jnp.log2(jnp.asarray(LOAD_DAMPINGS)), expert_load)

@@ -1,7 +1,5 @@
 """The expert drag as the task reads it (task/expert.py): the residual's prior and the relative load's unit."""
 
-import math
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -13,6 +11,7 @@ from dragmesh2_jax.evaluation.evaluate import envelope
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.task.config import Constraint, RewardConfig
 from dragmesh2_jax.task.env import make_batched
+from dragmesh2_jax.task.expert import LOAD_DAMPINGS, load_unit
 
 DOOR = str(packaged_object("door_cabinet_0000"))
 
@@ -24,14 +23,20 @@ def door():
     return load_task(DOOR, None, backend="mujoco", reward=bound)
 
 
-def test_the_relative_loads_unit_is_the_experts_peak_the_envelope_reports(door):
-    """The probe replays the expert drag at its own pace and x1 from the grasp, as the envelope's own cell does."""
-    (own,) = envelope(door, paces=(1.0,), dampings=(1.0,))
-    assert float(door.params.expert_load) == pytest.approx(own["wrist_load_peak_n"], rel=1e-3) and own["opened"]
+def test_the_relative_loads_unit_is_the_experts_peak_the_envelope_reports_at_each_damping(door):
+    """The probe replays the expert drag at its own pace from the grasp at x1-x8, as the envelope's own cells do; a
+    world's unit is interpolated between them in log-damping and held beyond them."""
+    rows = envelope(door, paces=(1.0,), dampings=LOAD_DAMPINGS)
+    np.testing.assert_allclose(door.params.expert_load, [r["wrist_load_peak_n"] for r in rows], rtol=1e-3)
+    peaks = np.asarray(door.params.expert_load)
+    assert rows[0]["opened"] and np.all(peaks > 0)
+    unit = jax.vmap(lambda d: load_unit(door.params.expert_load, d))(jnp.asarray([0.5, 1.0, 2 ** 0.5, 8.0, 16.0]))
+    np.testing.assert_allclose(unit, [peaks[0], peaks[0], (peaks[0] + peaks[1]) / 2, peaks[-1], peaks[-1]],
+                               rtol=1e-6)
 
 
 def test_a_task_without_the_measure_does_not_probe_it():
-    assert math.isnan(float(load_task(DOOR, None, backend="mujoco").params.expert_load))
+    assert np.isnan(load_task(DOOR, None, backend="mujoco").params.expert_load).all()
 
 
 def test_the_expert_replayed_never_pulls_past_its_own_peak_and_a_yank_does(door):
