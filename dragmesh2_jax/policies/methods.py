@@ -16,9 +16,9 @@ reward, with the paper's damping range. ``hold`` is PICA trained where the load 
 ``hold_cmdp`` with the wrist load as a CMDP constraint (its penalty weight a Lagrange multiplier) and
 ``hold_blind_cmdp`` the constraint without the sensing;
 ``hold_blind_handle`` is hold_blind with the observation that transfers across objects (``task/observation.py``).
-``hold_blind_residual_smooth`` (``--method recommended``, the project's recipe, issue 33) is hold_blind as a
-smooth residual over the expert drag with its wrist load bounded: it holds the validation doors at x1-x8 nearest the
-expert's force (RESULTS.md §3b).
+``hold_blind_residual_relative`` (``--method recommended``, the project's recipe, issue 33) is hold_blind as a
+smooth residual over the expert drag with its wrist load bounded by each object's expert's: it holds the validation
+doors at x1-x8 nearest the expert's force (RESULTS.md §3b).
 The task itself (action interface, success threshold, damping multipliers, episode length) is the paper's for every
 method.
 """
@@ -168,7 +168,7 @@ METHODS = {m.name: m for m in (
            {**HOLD, "task.reward.constraints": (Constraint(),)}),
 )}
 #: ``--method recommended``: the project's best recipe (RESULTS.md §3b says why), wherever a method is taken.
-RECOMMENDED = "hold_blind_residual_smooth"
+RECOMMENDED = "hold_blind_residual_relative"
 
 
 def resolve(name: str) -> str:
