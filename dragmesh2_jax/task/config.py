@@ -205,6 +205,9 @@ class TaskConfig:
     # moves the hand to the drag's target for this step at its own pace (the tracking_delta baseline's action), both
     # clipped to [-1, 1]; a policy that outputs zeros replays the expert (the hand only: the drag is the hand's)
     expert_prior: bool = False
+    # beyond the paper, the unit of the relative_load measure: the expert drag's peak wrist load, the largest over the
+    # expert grasp and the first expert_load_starts - 1 starts of the reset bank (task/expert.py)
+    expert_load_starts: int = 1
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @staticmethod
@@ -245,6 +248,8 @@ class TaskConfig:
             raise DragMeshError(f"object_curriculum must be in [0, 1], got {self.object_curriculum}")
         if not 0 < self.rho <= 1:
             raise DragMeshError(f"rho must be in (0, 1], got {self.rho}")
+        if self.expert_load_starts < 1:
+            raise DragMeshError(f"expert_load_starts must be >= 1, got {self.expert_load_starts}")
 
     def resolved_backend(self) -> str:
         if self.backend != "auto":

@@ -39,19 +39,21 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
 
 
 def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, start: Start | None, substeps: int) -> np.ndarray:
-    """The expert drag's peak wrist load (N) at each of ``LOAD_DAMPINGS`` from the task's unperturbed start
-    (``start``, else the expert grasp), up to success: probed only when a constraint reads ``relative_load`` (else
-    NaN, never read)."""
+    """The expert drag's peak wrist load (N) at each of ``LOAD_DAMPINGS``, the largest over the task's unperturbed
+    start (``start``, else the expert grasp) and the first ``config.expert_load_starts - 1`` starts of its reset bank,
+    each up to success: probed only when a constraint reads ``relative_load`` (else NaN, never read)."""
     if not any(c.measure == RELATIVE_LOAD for c in config.reward.constraints):
         return np.full(len(LOAD_DAMPINGS), np.nan, np.float32)
     if scene.config.effector != "hand":
         raise DragMeshError(f"{RELATIVE_LOAD} needs the hand (the expert drag moves the hand, not a gripper)")
     lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
-    nominal = reset_starts(scene, traj, None, start, config.rho)[0]
+    starts = reset_starts(scene, traj, None, start, config.rho)
+    if config.reset_noise is not None:
+        starts += reset_starts(scene, traj, config.reset_noise, start, config.rho)[:config.expert_load_starts - 1]
     targets = np.clip(held_targets(traj, config), lo, hi)
-    return np.asarray([contacts.peak_load(scene, nominal, targets, substeps, config.settle_substeps,
-                                          traj.q_done_at(config.rho), damping) for damping in LOAD_DAMPINGS],
-                      np.float32)
+    return np.asarray([max(contacts.peak_load(scene, s, targets, substeps, config.settle_substeps,
+                                              traj.q_done_at(config.rho), damping) for s in starts)
+                       for damping in LOAD_DAMPINGS], np.float32)
 
 
 def load_unit(expert_load: jnp.ndarray, damping: jnp.ndarray) -> jnp.ndarray:

@@ -7,11 +7,13 @@ import pytest
 
 from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.baselines.tracking import tracking_controller
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import envelope
 from dragmesh2_jax.runs.build import load_task
-from dragmesh2_jax.task.config import Constraint, RewardConfig
-from dragmesh2_jax.task.env import make_batched
+from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig, TaskConfig
+from dragmesh2_jax.task.env import PullTask, make_batched
 from dragmesh2_jax.task.expert import LOAD_DAMPINGS, load_unit
+from dragmesh2_jax.task.starts import reset_starts
 
 DOOR = str(packaged_object("door_cabinet_0000"))
 
@@ -65,3 +67,16 @@ def test_the_expert_replayed_never_pulls_past_its_own_peak_and_a_yank_does(door)
     yank[:3] = -1.0  # the wrist's translation, full speed one way
     cost, _ = jax.device_get(jax.jit(lambda: run(yank))())
     assert cost.max() == 1.0
+
+
+
+def test_over_the_starts_the_unit_is_the_largest_peak_of_the_grasp_and_the_banks_first_starts(door):
+    """A unit over 3 starts: at each damping the largest of the expert grasp's peak and those from the reset bank's
+    first two starts (each probed as a task of its own start)."""
+    wide = load_task(DOOR, None, backend="mujoco", reward=door.config.reward, reset_noise=ResetNoise(),
+                     expert_load_starts=3)
+    bank = reset_starts(door.scene, door.traj, ResetNoise(), None, door.config.rho)[:2]
+    each = [np.asarray(PullTask(door.scene, door.traj, door.config, start=s).params.expert_load) for s in bank]
+    np.testing.assert_allclose(wide.params.expert_load, np.max([door.params.expert_load, *each], axis=0), rtol=1e-6)
+    with pytest.raises(DragMeshError, match="expert_load_starts"):
+        TaskConfig(expert_load_starts=0)
