@@ -51,7 +51,8 @@ HOLD: dict[str, Any] = {"network.critic": "privileged", "task.damping_range": (1
                         "task.reset_noise": ResetNoise()}
 #: A policy trained over x1-x8 read at its final checkpoint and evaluated over its training range and x16 beyond it.
 READ_FINAL: dict[str, Any] = {"schedule.checkpoint": "final", "schedule.dampings": RECIPE_DAMPINGS}
-#: The recipe: PICA-Hold without the contact-load sensors, twice the paper's budget, read at its final checkpoint.
+#: hold_blind (the recipe until issue 33): PICA-Hold without the contact-load sensors, twice the paper's budget, read
+#: at its final checkpoint.
 HOLD_BLIND: dict[str, Any] = {**HOLD, **READ_FINAL, "schedule.epochs": HOLD_BLIND_EPOCHS}
 #: The wrist load bounded to what the grasp holds (issue 33): at most 2% of steps past RewardConfig.f_hold, a CMDP
 #: constraint whose multiplier moves at lr 2 up to 100, in the normalised Lagrangian (RESULTS.md §3b).
