@@ -31,6 +31,7 @@ from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig
+from dragmesh2_jax.task.expert import RELATIVE_LOAD
 
 #: The recipe's evaluation cells: its training range x1-x8 and x16 beyond it (out of its training distribution).
 RECIPE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
@@ -54,18 +55,23 @@ READ_FINAL: dict[str, Any] = {"schedule.checkpoint": "final", "schedule.dampings
 #: hold_blind (the recipe until issue 33): PICA-Hold without the contact-load sensors, twice the paper's budget, read
 #: at its final checkpoint.
 HOLD_BLIND: dict[str, Any] = {**HOLD, **READ_FINAL, "schedule.epochs": HOLD_BLIND_EPOCHS}
+
+
+def bounded(measure: str, limit: float, cost: str = "rate", budget: float = 0.02) -> Constraint:
+    """A constraint of the plausible-hold methods: its multiplier moves at lr 2 up to 100."""
+    return Constraint(measure, limit, cost, budget=budget, lr=2.0, lambda_max=100.0)
+
+
 #: The wrist load bounded to what the grasp holds (issue 33): at most 2% of steps past RewardConfig.f_hold, a CMDP
 #: constraint whose multiplier moves at lr 2 up to 100, in the normalised Lagrangian (RESULTS.md §3b).
-LOAD_BOUND: dict[str, Any] = {"task.reward.constraints": (Constraint("load", RewardConfig.f_hold, "rate", budget=0.02,
-                                                                     lr=2.0, lambda_max=100.0),),
+LOAD_BOUND: dict[str, Any] = {"task.reward.constraints": (bounded("load", RewardConfig.f_hold),),
                               "task.reward.lagrangian": "normalized"}
 
 #: The same bound relative to each object's expert (issue 33): at most 2% of steps past the expert drag's own peak
 #: wrist load on the object at the world's damping (``relative_load``), so that a light door is held to its expert's
 #: pull as the tuning door is to 100 N (its expert's peak at x1-x8: 99-101 N). Set there: 1.2x the peak let the pull
 #: reach 1.27x the expert's p95; on 45780 the x1 peak alone as the limit at every damping cost x4 and x8 (RESULTS §3b).
-RELATIVE_LOAD_BOUND: dict[str, Any] = {**LOAD_BOUND, "task.reward.constraints": (
-    Constraint("relative_load", 1.0, "rate", budget=0.02, lr=2.0, lambda_max=100.0),)}
+RELATIVE_LOAD_BOUND: dict[str, Any] = {**LOAD_BOUND, "task.reward.constraints": (bounded(RELATIVE_LOAD, 1.0),)}
 
 #: The same over the starts a policy meets (issue 33): the unit the largest peak over the expert grasp and 7 starts of
 #: the reset bank, so that a start from which even the expert pulls harder does not break the bound.
@@ -75,7 +81,7 @@ OVER_STARTS: dict[str, Any] = {"task.expert_load_starts": 8}
 def beside_load_bound(measure: str, limit: float, cost: str, budget: float) -> dict[str, Any]:
     """LOAD_BOUND and a second constraint on ``measure``, its multiplier moving as the load's (lr 2, cap 100)."""
     return {**LOAD_BOUND, "task.reward.constraints": LOAD_BOUND["task.reward.constraints"] + (
-        Constraint(measure, limit, cost, budget=budget, lr=2.0, lambda_max=100.0),)}
+        bounded(measure, limit, cost, budget),)}
 
 
 #: The applied action's change bounded (issue 33): its mean change per step |a_t - a_(t-1)| past 0.2 action units

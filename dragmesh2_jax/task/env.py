@@ -57,7 +57,7 @@ from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
-from dragmesh2_jax.task.expert import expert_drag, expert_load, load_unit
+from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import (
@@ -76,13 +76,13 @@ from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 TOKEN_SIZE = 2 * NUM_DOFS
+AUX_SIZE = 4
+PRIVILEGED_SIZE = len(randomize.RANDOMIZERS) + FORCE_SIZE
 
 
 def applied_action(obs: Obs, action_size: int) -> jnp.ndarray:
     """a_{t-1} of the newest history token [e_t, a_{t-1}, ...]: the action the last step applied (prior included)."""
     return obs.history[..., -1, action_size:2 * action_size]
-AUX_SIZE = 4
-PRIVILEGED_SIZE = len(randomize.RANDOMIZERS) + FORCE_SIZE
 
 
 @struct.dataclass
@@ -213,7 +213,9 @@ class PullTask:
                             long_sign=jnp.float32(sign),
                             schedule=jnp.asarray(traj.drag_schedule(config.control_dt, config.episode_length)),
                             drag=jnp.asarray(expert_drag(scene, traj, config)),
-                            expert_load=jnp.asarray(expert_load(scene, traj, config, start, self.backend.substeps)),
+                            expert_load=jnp.asarray(expert_load(scene, traj, config,
+                                                                reset_starts(scene, traj, None, start, config.rho)[0],
+                                                                starts, self.backend.substeps)),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
@@ -419,7 +421,7 @@ class PullTask:
         p = self.params
         lag = (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start)  # one schedule entry per step
         load = jnp.linalg.norm(k.force[:3])
-        return {"load": load, "relative_load": load / load_unit(p.expert_load, damping), "lag": lag, "lead": -lag,
+        return {"load": load, RELATIVE_LOAD: load / load_unit(p.expert_load, damping), "lag": lag, "lead": -lag,
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration,

@@ -12,7 +12,6 @@ from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.base import Start
 from dragmesh2_jax.scene import Scene
 from dragmesh2_jax.task.config import TaskConfig
-from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 #: The measure whose unit is the expert's peak wrist load (``config.MEASURES``).
@@ -38,18 +37,17 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
     return held_targets(traj, config)
 
 
-def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, start: Start | None, substeps: int) -> np.ndarray:
+def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Start, bank: list[Start],
+                substeps: int) -> np.ndarray:
     """The expert drag's peak wrist load (N) at each of ``LOAD_DAMPINGS``, the largest over the task's unperturbed
-    start (``start``, else the expert grasp) and the first ``config.expert_load_starts - 1`` starts of its reset bank,
+    start ``nominal`` and the first ``config.expert_load_starts - 1`` starts of its reset ``bank`` (with reset noise),
     each up to success: probed only when a constraint reads ``relative_load`` (else NaN, never read)."""
     if not any(c.measure == RELATIVE_LOAD for c in config.reward.constraints):
         return np.full(len(LOAD_DAMPINGS), np.nan, np.float32)
     if scene.config.effector != "hand":
         raise DragMeshError(f"{RELATIVE_LOAD} needs the hand (the expert drag moves the hand, not a gripper)")
     lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
-    starts = reset_starts(scene, traj, None, start, config.rho)
-    if config.reset_noise is not None:
-        starts += reset_starts(scene, traj, config.reset_noise, start, config.rho)[:config.expert_load_starts - 1]
+    starts = [nominal] + (bank[:config.expert_load_starts - 1] if config.reset_noise is not None else [])
     targets = np.clip(held_targets(traj, config), lo, hi)
     return np.asarray([max(contacts.peak_load(scene, s, targets, substeps, config.settle_substeps,
                                               traj.q_done_at(config.rho), damping) for s in starts)
