@@ -5,7 +5,7 @@
 # engine. Resumable: a stopped run resumes, a finished one is only evaluated.
 #   bash experiments/relative_load.sh [OUT] [SHARED] [METHOD] [OBJECTS]   (about 12 minutes per object on 2 CPU cores)
 # METHOD defaults to hold_blind_residual_relative; OBJECTS (names, space-separated; "door" the tuning door) to all
-# five, e.g. hold_blind_residual_relative_starts "45661 11712 45780" (RESULTS.md §3b).
+# five, e.g. hold_blind_residual_relative_own "45661 door 45261 11712 45780" (RESULTS.md §3b).
 # The tables: python experiments/plausible_table.py OUT --object <object> --row "LABEL=GLOB" ... (RESULTS.md §3b).
 set -euo pipefail
 out=${1:-runs/relative_load}

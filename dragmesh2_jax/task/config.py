@@ -69,6 +69,10 @@ class ReconfigConfig:
 #: evaluation's ``action_smoothness`` per step).
 MEASURES = ("load", "relative_load", "lag", "lead", "palm_speed", "saturation", "wrist_saturation", "penetration",
             "action_change")
+#: The unit of ``relative_load``: the expert drag's peak wrist load at the world's damping, replayed from its exact
+#: grasp (``grasp``) or from the reset bank's start the world's episode began at (``start``: a start from which the
+#: expert itself pulls harder is held to what the expert pulls there, so the residual's zero keeps the bound).
+EXPERT_UNITS = ("grasp", "start")
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit).
 COSTS = ("excess", "rate")
@@ -205,9 +209,8 @@ class TaskConfig:
     # moves the hand to the drag's target for this step at its own pace (the tracking_delta baseline's action), both
     # clipped to [-1, 1]; a policy that outputs zeros replays the expert (the hand only: the drag is the hand's)
     expert_prior: bool = False
-    # beyond the paper, the unit of the relative_load measure: the expert drag's peak wrist load, the largest over the
-    # expert grasp and the first expert_load_starts - 1 starts of the reset bank (task/expert.py)
-    expert_load_starts: int = 1
+    # beyond the paper, the unit of the relative_load measure: one of EXPERT_UNITS (task/expert.py)
+    expert_load_unit: str = "grasp"
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @staticmethod
@@ -217,6 +220,9 @@ class TaskConfig:
         fixed = data.pop("damping_fixed", None)
         if fixed is not None:
             data["damping_range"] = [fixed, fixed]
+        if data.pop("expert_load_starts", 1) != 1:
+            raise DragMeshError("this run's relative_load unit (expert_load_starts, the largest over the reset bank's "
+                                "first starts) was replaced by expert_load_unit: read it with commit 40e6904")
         return data
 
     def __post_init__(self):
@@ -248,8 +254,9 @@ class TaskConfig:
             raise DragMeshError(f"object_curriculum must be in [0, 1], got {self.object_curriculum}")
         if not 0 < self.rho <= 1:
             raise DragMeshError(f"rho must be in (0, 1], got {self.rho}")
-        if self.expert_load_starts < 1:
-            raise DragMeshError(f"expert_load_starts must be >= 1, got {self.expert_load_starts}")
+        if self.expert_load_unit not in EXPERT_UNITS:
+            raise DragMeshError(f"unknown expert_load_unit {self.expert_load_unit!r} (choose from "
+                                f"{', '.join(EXPERT_UNITS)})")
 
     def resolved_backend(self) -> str:
         if self.backend != "auto":

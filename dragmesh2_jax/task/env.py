@@ -103,7 +103,7 @@ class TaskParams:
     long_sign: jnp.ndarray  # +-1: the handle's long axis as the observation reads it (task/observation.py)
     schedule: jnp.ndarray  # (episode_length,) the target joint after each step of the expert drag at its own pace
     drag: jnp.ndarray  # (episode_length, 51) the expert drag's hand targets per step (TaskConfig.expert_prior), or (0,)
-    expert_load: jnp.ndarray  # (4,) N, the expert drag's peak wrist load at x1-x8, relative_load's unit (task/expert)
+    expert_load: jnp.ndarray  # (bank, 4) N, the expert's peak wrist load per start at x1-x8, relative_load's unit
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
     # the object's probability of being drawn at a reset of an object mix (task/mix.py; set there by the trainer)
@@ -346,7 +346,8 @@ class PullTask:
         K1 = c.aux_window + 1
         info = {
             "rng": key, "step": jnp.int32(0), "scales": {n: jnp.asarray(v, jnp.float32) for n, v in scales.items()},
-            "fixed_damping": fixed, "armed": d <= c.d_detach, "q_prev": k.obj_q.astype(jnp.float32), "ctrl": ctrl,
+            "fixed_damping": fixed, "start": start, "armed": d <= c.d_detach, "q_prev": k.obj_q.astype(jnp.float32),
+            "ctrl": ctrl,
             "d_ring": jnp.full((K1,), d), "q_ring": jnp.full((K1,), k.obj_q, jnp.float32),
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
@@ -416,12 +417,13 @@ class PullTask:
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
     def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray, a_prev: jnp.ndarray, ev: Events,
-                  damping: jnp.ndarray) -> dict[str, jnp.ndarray]:
-        """This step's value of each quantity a constraint can bound (``config.MEASURES``)."""
+                  unit: jnp.ndarray) -> dict[str, jnp.ndarray]:
+        """This step's value of each quantity a constraint can bound (``config.MEASURES``; ``unit``: the relative
+        load's, the expert's peak at this world's start and damping)."""
         p = self.params
         lag = (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start)  # one schedule entry per step
         load = jnp.linalg.norm(k.force[:3])
-        return {"load": load, RELATIVE_LOAD: load / load_unit(p.expert_load, damping), "lag": lag, "lead": -lag,
+        return {"load": load, RELATIVE_LOAD: load / unit, "lag": lag, "lead": -lag,
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration,
@@ -462,7 +464,7 @@ class PullTask:
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
         measures = self._measures(palm_before, k, a, applied_action(state.obs, self.action_size), ev,
-                                  info["scales"][randomize.DAMPING])
+                                  load_unit(self.params.expert_load[info["start"]], info["scales"][randomize.DAMPING]))
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
                              for x in c.reward.constraints], jnp.float32)
         reward, terms, reward_state = self._reward(state, a, k, ev, finite, costs)

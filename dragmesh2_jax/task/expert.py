@@ -39,21 +39,24 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
 
 def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Start, bank: list[Start],
                 substeps: int) -> np.ndarray:
-    """The expert drag's peak wrist load (N) at each of ``LOAD_DAMPINGS``, the largest over the task's unperturbed
-    start ``nominal`` and the first ``config.expert_load_starts - 1`` starts of its reset ``bank`` (with reset noise),
-    each up to success: probed only when a constraint reads ``relative_load`` (else NaN, never read)."""
+    """The expert drag's peak wrist load (N) at each of ``LOAD_DAMPINGS`` (columns), one row per start of the task's
+    reset ``bank``: every row from the task's unperturbed start ``nominal`` (``config.expert_load_unit`` "grasp") or
+    each from its own start ("start"), each up to success; probed only when a constraint reads ``relative_load``
+    (else NaN, never read)."""
+    shape = (len(bank), len(LOAD_DAMPINGS))
     if not any(c.measure == RELATIVE_LOAD for c in config.reward.constraints):
-        return np.full(len(LOAD_DAMPINGS), np.nan, np.float32)
+        return np.full(shape, np.nan, np.float32)
     if scene.config.effector != "hand":
         raise DragMeshError(f"{RELATIVE_LOAD} needs the hand (the expert drag moves the hand, not a gripper)")
     lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
-    starts = [nominal] + (bank[:config.expert_load_starts - 1] if config.reset_noise is not None else [])
     targets = np.clip(held_targets(traj, config), lo, hi)
-    return np.asarray([max(contacts.peak_load(scene, s, targets, substeps, config.settle_substeps,
-                                              traj.q_done_at(config.rho), damping) for s in starts)
-                       for damping in LOAD_DAMPINGS], np.float32)
+    peaks = [[contacts.peak_load(scene, s, targets, substeps, config.settle_substeps, traj.q_done_at(config.rho),
+                                 damping) for damping in LOAD_DAMPINGS]
+             for s in (bank if config.expert_load_unit == "start" else [nominal])]
+    return np.broadcast_to(np.asarray(peaks, np.float32), shape).copy()
 
 
 def load_unit(expert_load: jnp.ndarray, damping: jnp.ndarray) -> jnp.ndarray:
-    """The expert's peak wrist load at a world's damping multiplier (``expert_load`` at ``LOAD_DAMPINGS``)."""
+    """The expert's peak wrist load at a world's damping multiplier (``expert_load``: its start's row, at
+    ``LOAD_DAMPINGS``)."""
     return jnp.interp(jnp.log2(damping), jnp.log2(jnp.asarray(LOAD_DAMPINGS)), expert_load)

@@ -28,7 +28,7 @@ def test_the_expert_from_its_own_grasp_spends_nothing_and_from_perturbed_starts_
     assert [r["damping"] for r in rows] == [1.0, 8.0]
     for r in rows:
         assert r["success"] == 1.0 and r["excess"] < 1e-3
-        assert r["unit_n"] == pytest.approx(float(exact.params.expert_load[0 if r["damping"] == 1.0 else -1]))
+        assert r["unit_n"] == pytest.approx(float(exact.params.expert_load[0, 0 if r["damping"] == 1.0 else -1]))
     perturbed = exact.with_starts(ResetNoise())
     for r in load_budget.spend(perturbed, tracking_controller(perturbed), [1.0], 4):
         assert 0.0 <= r["rate"] <= 1.0 and 0.0 <= r["early_share"] <= 1.0 and r["excess"] >= 0.0

@@ -29,10 +29,11 @@ def test_the_relative_loads_unit_is_the_experts_peak_the_envelope_reports_at_eac
     """The probe replays the expert drag at its own pace from the grasp at x1-x8, as the envelope's own cells do; a
     world's unit is interpolated between them in log-damping and held beyond them."""
     rows = envelope(door, paces=(1.0,), dampings=LOAD_DAMPINGS)
-    np.testing.assert_allclose(door.params.expert_load, [r["wrist_load_peak_n"] for r in rows], rtol=1e-3)
-    peaks = np.asarray(door.params.expert_load)
+    assert door.params.expert_load.shape == (1, len(LOAD_DAMPINGS))  # one row per start: the exact grasp alone
+    peaks = np.asarray(door.params.expert_load[0])
+    np.testing.assert_allclose(peaks, [r["wrist_load_peak_n"] for r in rows], rtol=1e-3)
     assert rows[0]["opened"] and np.all(peaks > 0)
-    unit = jax.vmap(lambda d: load_unit(door.params.expert_load, d))(jnp.asarray([0.5, 1.0, 2 ** 0.5, 8.0, 16.0]))
+    unit = jax.vmap(lambda d: load_unit(peaks, d))(jnp.asarray([0.5, 1.0, 2 ** 0.5, 8.0, 16.0]))
     np.testing.assert_allclose(unit, [peaks[0], peaks[0], (peaks[0] + peaks[1]) / 2, peaks[-1], peaks[-1]],
                                rtol=1e-6)
 
@@ -41,42 +42,53 @@ def test_a_task_without_the_measure_does_not_probe_it():
     assert np.isnan(load_task(DOOR, None, backend="mujoco").params.expert_load).all()
 
 
-def test_the_expert_replayed_never_pulls_past_its_own_peak_and_a_yank_does(door):
-    """At x1 the expert's relative load peaks at 1 (no step past the 1.01 limit); a hand thrown back at full action
-    pulls past it."""
-    reset, step = make_batched(door)
-    c = tracking_controller(door)
+def _replay(task, start: int, fixed=None):
+    """The relative load's cost and done per step of one episode from bank start ``start`` at x1: the expert drag,
+    or the constant action ``fixed``."""
+    reset, step = make_batched(task)
+    c = tracking_controller(task)
     policy = c.make_policy(True)
 
-    def run(fixed):
-        s = reset(jax.random.split(jax.random.PRNGKey(0), 1), jnp.ones(1))
+    def run():
+        s = jax.vmap(lambda k: task.reset(k, 1.0, start))(jax.random.split(jax.random.PRNGKey(0), 1))
 
         def body(s, _):
             if fixed is None:
-                s = jax.vmap(door.step_target)(s, policy(c.params, s.obs, None))
+                s = jax.vmap(task.step_target)(s, policy(c.params, s.obs, None))
             else:
                 s = step(s, jnp.broadcast_to(fixed, (1, 51)))
             return s, (s.metrics["cost_relative_load"], s.done)
 
-        return jax.lax.scan(body, s, None, length=door.config.episode_length)[1]
+        return jax.lax.scan(body, s, None, length=task.config.episode_length)[1]
 
-    cost, done = jax.device_get(jax.jit(lambda: run(None))())
+    cost, done = jax.device_get(jax.jit(run)())
     live = np.cumsum(done[:, 0]) - done[:, 0] == 0  # up to and including the step that ends the episode
-    assert cost[live].max() == 0.0
+    return cost[live]
+
+
+def test_the_expert_replayed_never_pulls_past_its_own_peak_and_a_yank_does(door):
+    """At x1 the expert's relative load peaks at 1 (no step past the 1.01 limit); a hand thrown back at full action
+    pulls past it."""
+    assert _replay(door, 0).max() == 0.0
     yank = np.zeros(51, np.float32)
     yank[:3] = -1.0  # the wrist's translation, full speed one way
-    cost, _ = jax.device_get(jax.jit(lambda: run(yank))())
-    assert cost.max() == 1.0
+    assert _replay(door, 0, yank).max() == 1.0
 
 
-
-def test_over_the_starts_the_unit_is_the_largest_peak_of_the_grasp_and_the_banks_first_starts(door):
-    """A unit over 3 starts: at each damping the largest of the expert grasp's peak and those from the reset bank's
-    first two starts (each probed as a task of its own start)."""
-    wide = load_task(DOOR, None, backend="mujoco", reward=door.config.reward, reset_noise=ResetNoise(),
-                     expert_load_starts=3)
-    bank = reset_starts(door.scene, door.traj, ResetNoise(), None, door.config.rho)[:2]
-    each = [np.asarray(PullTask(door.scene, door.traj, door.config, start=s).params.expert_load) for s in bank]
-    np.testing.assert_allclose(wide.params.expert_load, np.max([door.params.expert_load, *each], axis=0), rtol=1e-6)
-    with pytest.raises(DragMeshError, match="expert_load_starts"):
-        TaskConfig(expert_load_starts=0)
+def test_from_its_own_start_each_world_is_held_to_what_the_expert_pulls_there(door):
+    """``expert_load_unit="start"``: one row per start of the reset bank, each the expert's peaks from that start
+    (probed as a task of its own start), and the expert replayed from any start never past it; the grasp's unit is
+    its one row for every start."""
+    noise = ResetNoise(bank=3)
+    own = load_task(DOOR, None, backend="mujoco", reward=door.config.reward, reset_noise=noise,
+                    expert_load_unit="start")
+    grasp = load_task(DOOR, None, backend="mujoco", reward=door.config.reward, reset_noise=noise)
+    bank = reset_starts(door.scene, door.traj, noise, None, door.config.rho)
+    each = [np.asarray(PullTask(door.scene, door.traj, door.config, start=s).params.expert_load[0]) for s in bank]
+    np.testing.assert_allclose(own.params.expert_load, each, rtol=1e-6)
+    np.testing.assert_allclose(grasp.params.expert_load, np.broadcast_to(door.params.expert_load, (3, 4)), rtol=1e-6)
+    assert not np.allclose(each[1], each[2])  # the starts differ, and so do their units
+    for i in range(3):
+        assert _replay(own, i).max() == 0.0
+    with pytest.raises(DragMeshError, match="expert_load_unit"):
+        TaskConfig(expert_load_unit="bank")
