@@ -80,6 +80,13 @@ RELATIVE_LOAD_BOUND: dict[str, Any] = {**LOAD_BOUND, "task.reward.constraints": 
 RELATIVE_EXCESS_BOUND: dict[str, Any] = {**LOAD_BOUND, "task.reward.constraints": (
     bounded(RELATIVE_LOAD, 1.0, "excess", budget=0.01, lr=5.0),)}
 
+#: The episode's peak bounded (issue 33's force clause is on each episode's peak, which a rate of 2% of steps leaves
+#: free for a step or two: the rate recipe's deterministic policy on 45661 passes its unit in 1% of steps and peaks at
+#: 1.26-1.61x it): a peak cost, charged on every step after the episode first pulled past 1.1x the expert's own peak
+#: from its start, on at most 5% of steps; the critic sees whether it has (RESULTS.md §3b).
+PEAK_BOUND: dict[str, Any] = {**LOAD_BOUND, "task.reward.constraints": (
+    bounded(RELATIVE_LOAD, 1.1, "peak", budget=0.05),), "task.expert_load_unit": "start"}
+
 #: The same unit from the start a policy meets (issue 33): each episode held to the expert's own peak from the reset
 #: bank's start it began at, so that the bound asks no more than the expert pulls there. From perturbed starts the
 #: expert itself is past its grasp's unit in 41-62% of steps at x1-x2 on 11712 and 8% on 45780 (RESULTS.md §3b):
@@ -179,6 +186,10 @@ METHODS = {m.name: m for m in (
            "the episode's own start, not from the exact grasp: the bound asks no more than the expert pulls from "
            "there (RESULTS.md §3b); 150 epochs, read at its final checkpoint",
            {**HOLD, **READ_FINAL, **RESIDUAL, **RELATIVE_LOAD_BOUND, **SMOOTH, **OWN_START}),
+    Method("hold_blind_residual_peak", "hold_blind_residual_smooth with each episode's peak pull bounded: past 1.1x "
+           "the expert's own peak from the episode's start and damping, every later step of the episode pays, on at "
+           "most 5% of steps (RESULTS.md §3b); 150 epochs, read at its final checkpoint",
+           {**HOLD, **READ_FINAL, **RESIDUAL, **PEAK_BOUND, **SMOOTH}),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average (RESULTS.md §3b); 150 "
            "epochs, read at its final checkpoint",

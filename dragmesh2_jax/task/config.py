@@ -74,8 +74,10 @@ MEASURES = ("load", "relative_load", "lag", "lead", "palm_speed", "saturation", 
 #: expert itself pulls harder is held to what the expert pulls there, so the residual's zero keeps the bound).
 EXPERT_UNITS = ("grasp", "start")
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
-#: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit).
-COSTS = ("excess", "rate")
+#: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit), ``peak``
+#: 1[max_{s<=t} x_s > limit] (the episode's running peak past it, so E[c_t] is the share of steps after an episode
+#: first passed the limit: a bound on the episode's peak, which a rate leaves free for a step or two).
+COSTS = ("excess", "rate", "peak")
 
 
 #: How the constraints' penalty enters r_t. ``plain``: r_t - sum_i lambda_i c_i. ``normalized``: (r_t - sum_i lambda_i

@@ -307,8 +307,9 @@ class PullTask:
         parts = [e, a, load(k)] if self.config.force_obs else [e, a]
         return jnp.concatenate(parts).astype(jnp.float32)
 
-    def _privileged(self, info, k: Kinematics) -> jnp.ndarray:
-        return jnp.concatenate([randomize.privileged(info["scales"]), load(k)])
+    def _privileged(self, info, k: Kinematics) -> jnp.ndarray:  # and the peak constraints' memory: costs to come
+        peak = np.asarray([x.cost == "peak" for x in self.config.reward.constraints], bool)
+        return jnp.concatenate([randomize.privileged(info["scales"]), load(k), info["passed"][peak] * 1.0])
 
     def _aux(self, info) -> jnp.ndarray:
         q, dmax = info["q_ring"], info["d_ring"].max()
@@ -350,6 +351,7 @@ class PullTask:
             "ctrl": ctrl,
             "d_ring": jnp.full((K1,), d), "q_ring": jnp.full((K1,), k.obj_q, jnp.float32),
             "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
+            "passed": jnp.zeros(len(c.reward.constraints), bool),  # each constraint's limit passed this episode
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
             "stall": jnp.int32(0), "cooldown": jnp.int32(0),
@@ -465,8 +467,8 @@ class PullTask:
         ev = self._events(info, k, finite)
         measures = self._measures(palm_before, k, a, applied_action(state.obs, self.action_size), ev,
                                   load_unit(self.params.expert_load[info["start"]], info["scales"][randomize.DAMPING]))
-        costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure]), 0.0)
-                             for x in c.reward.constraints], jnp.float32)
+        costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure], info["passed"][i]), 0.0)
+                             for i, x in enumerate(c.reward.constraints)], jnp.float32)
         reward, terms, reward_state = self._reward(state, a, k, ev, finite, costs)
         # observation
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
@@ -476,7 +478,7 @@ class PullTask:
         new_info = {**info, **reward_state, "step": ev.step, "armed": info["armed"] | (ev.d <= c.d_detach),
                     "q_prev": ev.q, "ctrl": ctrl, "d_ring": ring(info["d_ring"], ev.d),
                     "q_ring": ring(info["q_ring"], ev.q), "e_ring": ring(info["e_ring"], jnp.linalg.norm(e)),
-                    "episode_return": ep_return}
+                    "episode_return": ep_return, "passed": info["passed"] | (costs > 0)}
         obs = Obs(state=state_obs(self.config, k, self.params), history=history, aux=self._aux(new_info),
                   privileged=self._privileged(new_info, k), step=ev.step)
         metrics = {

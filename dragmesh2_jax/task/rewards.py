@@ -88,11 +88,14 @@ def cost_metric(cfg: Constraint) -> str:
     return f"cost_{cfg.measure}"
 
 
-def constraint_cost(cfg: Constraint, x: jnp.ndarray) -> jnp.ndarray:
-    """A constraint's per-step cost c_t from the step's measure ``x`` (its multiplier weighs it in r_t; its epoch
-    mean moves the multiplier)."""
+def constraint_cost(cfg: Constraint, x: jnp.ndarray, passed: jnp.ndarray = jnp.bool_(False)) -> jnp.ndarray:
+    """A constraint's per-step cost c_t from the step's measure ``x`` and whether the episode's measure passed the
+    limit at an earlier step (``passed``, the peak cost's memory); its multiplier weighs it in r_t, its epoch mean
+    moves the multiplier."""
     if cfg.cost == "rate":
         return (x > cfg.limit).astype(jnp.float32)
+    if cfg.cost == "peak":
+        return (passed | (x > cfg.limit)).astype(jnp.float32)
     return jnp.maximum(x - cfg.limit, 0.0) / cfg.limit
 
 

@@ -193,6 +193,9 @@ def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps
     assert cost(0.5 * c.limit) == 0.0 and cost(c.limit) == 0.0 and cost(1.5 * c.limit) == pytest.approx(0.5)
     rate = Constraint("palm_speed", 0.25, "rate")
     assert cost(0.25, rate) == 0.0 and cost(0.26, rate) == 1.0 and cost(9.0, rate) == 1.0
+    peak = Constraint("palm_speed", 0.25, "peak")  # every step after the episode's first past the limit pays
+    assert cost(0.25, peak) == 0.0 and cost(0.26, peak) == 1.0
+    assert float(constraint_cost(peak, jnp.float32(0.0), jnp.bool_(True))) == 1.0
     for bad in ({"budget": -0.1}, {"measure": "speed"}, {"cost": "square"}, {"lambda_max": float("inf")}):
         with pytest.raises(DragMeshError, match="constraint"):
             Constraint(**bad)

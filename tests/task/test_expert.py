@@ -43,36 +43,49 @@ def test_a_task_without_the_measure_does_not_probe_it():
 
 
 def _replay(task, start: int, fixed=None):
-    """The relative load's cost and done per step of one episode from bank start ``start`` at x1: the expert drag,
-    or the constant action ``fixed``."""
-    reset, step = make_batched(task)
+    """One episode from bank start ``start`` at x1, the expert drag or the actions ``fixed`` (one for every step, or
+    one per step): per step up to the one that ends it, the relative load's cost and the critic's last input."""
+    step = make_batched(task)[1]
     c = tracking_controller(task)
     policy = c.make_policy(True)
+    T = task.config.episode_length
+    actions = jnp.broadcast_to(jnp.asarray(0.0 if fixed is None else fixed, jnp.float32), (T, 51))
+
+    def body(s, a):
+        s = jax.vmap(task.step_target)(s, policy(c.params, s.obs, None)) if fixed is None else step(s, a[None])
+        return s, (s.metrics["cost_relative_load"][0], s.done[0], s.obs.privileged[0, -1])
 
     def run():
         s = jax.vmap(lambda k: task.reset(k, 1.0, start))(jax.random.split(jax.random.PRNGKey(0), 1))
+        return jax.lax.scan(body, s, actions)[1]
 
-        def body(s, _):
-            if fixed is None:
-                s = jax.vmap(task.step_target)(s, policy(c.params, s.obs, None))
-            else:
-                s = step(s, jnp.broadcast_to(fixed, (1, 51)))
-            return s, (s.metrics["cost_relative_load"], s.done)
-
-        return jax.lax.scan(body, s, None, length=task.config.episode_length)[1]
-
-    cost, done = jax.device_get(jax.jit(run)())
-    live = np.cumsum(done[:, 0]) - done[:, 0] == 0  # up to and including the step that ends the episode
-    return cost[live]
+    cost, done, critic = jax.device_get(jax.jit(run)())
+    live = np.cumsum(done) - done == 0  # up to and including the step that ends the episode
+    return cost[live], critic[live]
 
 
 def test_the_expert_replayed_never_pulls_past_its_own_peak_and_a_yank_does(door):
     """At x1 the expert's relative load peaks at 1 (no step past the 1.01 limit); a hand thrown back at full action
     pulls past it."""
-    assert _replay(door, 0).max() == 0.0
+    assert _replay(door, 0)[0].max() == 0.0
     yank = np.zeros(51, np.float32)
     yank[:3] = -1.0  # the wrist's translation, full speed one way
-    assert _replay(door, 0, yank).max() == 1.0
+    assert _replay(door, 0, yank)[0].max() == 1.0
+
+
+def test_a_peak_cost_charges_every_step_after_the_first_pull_past_the_limit_and_the_critic_sees_it(door):
+    """A yank of a few steps, then the hand held: under a rate each step pays only while past the limit, under a
+    peak cost every step after the first past it pays, and the privileged critic's last input says so."""
+    yank = np.zeros((door.config.episode_length, 51), np.float32)
+    yank[4:10, :3] = -1.0  # after four steps held
+    rate, _ = _replay(door, 0, yank)
+    peak_task = load_task(DOOR, None, backend="mujoco",
+                          reward=RewardConfig(constraints=(Constraint("relative_load", 1.01, "peak"),)))
+    peak, critic = _replay(peak_task, 0, yank)
+    first = int(np.argmax(rate > 0))
+    assert first >= 4 and rate.max() == 1.0 and rate[first:].min() == 0.0  # the rate stops once the pull falls back
+    assert peak[:first].max() == 0.0 and peak[first:].min() == 1.0
+    np.testing.assert_array_equal(critic, peak)
 
 
 def test_from_its_own_start_each_world_is_held_to_what_the_expert_pulls_there(door):
@@ -89,6 +102,6 @@ def test_from_its_own_start_each_world_is_held_to_what_the_expert_pulls_there(do
     np.testing.assert_allclose(grasp.params.expert_load, np.broadcast_to(door.params.expert_load, (3, 4)), rtol=1e-6)
     assert not np.allclose(each[1], each[2])  # the starts differ, and so do their units
     for i in range(3):
-        assert _replay(own, i).max() == 0.0
+        assert _replay(own, i)[0].max() == 0.0
     with pytest.raises(DragMeshError, match="expert_load_unit"):
         TaskConfig(expert_load_unit="bank")
