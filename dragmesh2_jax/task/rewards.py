@@ -88,7 +88,7 @@ def cost_metric(cfg: Constraint) -> str:
     return f"cost_{cfg.measure}"
 
 
-def constraint_cost(cfg: Constraint, x: jnp.ndarray, passed: jnp.ndarray = jnp.bool_(False)) -> jnp.ndarray:
+def constraint_cost(cfg: Constraint, x: jnp.ndarray, passed: jnp.ndarray | bool = False) -> jnp.ndarray:
     """A constraint's per-step cost c_t from the step's measure ``x`` and whether the episode's measure passed the
     limit at an earlier step (``passed``, the peak cost's memory); its multiplier weighs it in r_t, its epoch mean
     moves the multiplier."""
