@@ -22,6 +22,8 @@ def convergence(folder: Path, last: int) -> list[dict]:
     """Per constraint of the run in ``folder``: its measure, budget, mean cost over the ``last`` epochs, final
     multiplier and its rise over them."""
     constraints = json.loads((folder / "run.json").read_text())["task"]["reward"]["constraints"]
+    if not (folder / "log.csv").exists():  # a run that has not finished its first epoch
+        return []
     with open(folder / "log.csv", newline="") as f:
         rows = list(csv.DictReader(f))[-last:]
     out = []

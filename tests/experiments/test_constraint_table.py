@@ -32,6 +32,8 @@ def _table(*args) -> subprocess.CompletedProcess:
 def test_a_budget_met_at_the_end_and_one_still_broken_are_told_apart(tmp_path):
     _run_folder(tmp_path, "door_s0", [0.3] * 20 + [0.01] * 10)  # broken early, met over the last 10 epochs
     _run_folder(tmp_path, "door_s1", [0.3] * 20 + [0.07] * 10)  # past it: 9 x 2 x 0.05 over the last 10
+    _run_folder(tmp_path, "door_s2", [0.3])
+    (tmp_path / "door_s2" / "log.csv").unlink()  # started, its first epoch not logged yet: no line
     res = _table(tmp_path, "--row", "bound=door_s*")
     assert res.returncode == 0, res.stderr
     met, broken = [line for line in res.stdout.splitlines() if line.startswith("| bound |")]
