@@ -17,6 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from dragmesh2_jax.task.config import Constraint
+from dragmesh2_jax.task.rewards import cost_metric
+
 
 def convergence(folder: Path, last: int) -> list[dict]:
     """Per constraint of the run in ``folder``: its measure, budget, mean cost over the ``last`` epochs, final
@@ -28,7 +31,7 @@ def convergence(folder: Path, last: int) -> list[dict]:
         rows = list(csv.DictReader(f))[-last:]
     out = []
     for c in constraints:
-        cost = np.asarray([float(r[f"cost_{c['measure']}"]) for r in rows])
+        cost = np.asarray([float(r[cost_metric(Constraint(**c))]) for r in rows])
         lam = np.asarray([float(r[f"lambda_{c['measure']}"]) for r in rows])
         out.append({"measure": c["measure"], "cost": c["cost"], "budget": c["budget"], "mean_cost": float(cost.mean()),
                     "lambda": float(lam[-1]), "lambda_rise": float(lam[-1] - lam[0])})
