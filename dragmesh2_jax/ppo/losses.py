@@ -3,7 +3,8 @@
 Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds - c_e H + w_aux L_aux, with the clipped surrogate, the
 clipped value loss in the normalised value space, rl_games' bounds loss on the action mean beyond +-1.1, and the
 auxiliary loss in z-scored target space (design §6-§7); beyond the paper, + c_s L_smooth when ``smooth_coef`` is
-set. KL(old || new) is reported as rl_games computes it.
+set, and the surrogate over the sampled actions alone when some worlds act on the mean (``mean_worlds``). KL(old ||
+new) is reported as rl_games computes it.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ class Batch:
     mu_prev: jnp.ndarray  # rollout-time action mean of the step before (the smoothness loss's target)
     prev_valid: jnp.ndarray  # 1 where that step is of the same episode and in this rollout
     log_std: jnp.ndarray
+    explore: jnp.ndarray  # 1 where the action was sampled, 0 where a world acted on the mean (PPOConfig.mean_worlds)
     value: jnp.ndarray  # normalised value prediction at rollout time
     advantage: jnp.ndarray
     target: jnp.ndarray  # normalised return target
@@ -80,7 +82,12 @@ def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: 
         else:
             mean = jax.lax.pmean(adv.mean(), axis)
             adv = (adv - mean) / (jnp.sqrt(jax.lax.pmean(jnp.mean((adv - mean) ** 2), axis)) + 1e-8)
-    pg = -jnp.mean(jnp.minimum(ratio * adv, jnp.clip(ratio, 1 - c.clip_eps, 1 + c.clip_eps) * adv))
+    # the surrogate over the sampled actions only: a mean action says nothing of which way the policy should move
+    surrogate = jnp.minimum(ratio * adv, jnp.clip(ratio, 1 - c.clip_eps, 1 + c.clip_eps) * adv)
+    sampled, shards = jnp.sum(batch.explore), 1
+    if axis is not None:  # the whole minibatch's mean once the caller averages the shards' gradients
+        sampled, shards = jax.lax.psum(sampled, axis), jax.lax.psum(1, axis)
+    pg = -shards * jnp.sum(batch.explore * surrogate) / jnp.maximum(sampled, 1.0)
     if c.clip_value:
         v_clip = batch.value + jnp.clip(v - batch.value, -c.clip_eps, c.clip_eps)
         vl = 0.5 * jnp.mean(jnp.maximum((v - batch.target) ** 2, (v_clip - batch.target) ** 2))

@@ -43,7 +43,7 @@ from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.losses import Batch, compute_gae, compute_ppo_loss, gaussian_logp
 from dragmesh2_jax.task.env import TaskData
 from dragmesh2_jax.task.protocol import CLIP_LEVEL, Env, Obs
-from dragmesh2_jax.task.rewards import TERM_PREFIX
+from dragmesh2_jax.task.rewards import COST_PREFIX, TERM_PREFIX
 from dragmesh2_jax.task.wrappers import AutoReset
 
 RUN_AXIS = "runs"  # the mesh axis the run (seed) axis is sharded over
@@ -178,9 +178,17 @@ def _shard_key(key: jax.Array, axis: str | None) -> jax.Array:
     return key if axis is None else jax.random.fold_in(key, jax.lax.axis_index(axis))
 
 
+def _explore(program: TrainProgram, worlds: int, axis: str | None) -> jnp.ndarray:
+    """1 for each of this shard's ``worlds`` that samples its actions, 0 for one of the first ``mean_worlds`` (of
+    the run's, counted over the shards in order), which acts on the mean."""
+    index = jnp.arange(worlds) + (0 if axis is None else jax.lax.axis_index(axis) * worlds)
+    return (index >= program.config.mean_worlds).astype(jnp.float32)
+
+
 def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | None = None):
     c, net = program.config, program.net
     env = _env(program, data, ts)
+    explore = _explore(program, ts.env_state.done.shape[0], axis)[:, None]
     step = jax.vmap(env.step)
     vs = ts.value_stats
     denorm = lambda v: v * jnp.sqrt(vs.var[0] + 1e-5) + vs.mean[0]  # noqa: E731
@@ -191,7 +199,7 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | 
         rng, k = jax.random.split(rng)
         obs = env_state.obs
         mu, log_std, v, _ = apply(obs)
-        a = mu + jnp.exp(log_std) * jax.random.normal(_shard_key(k, axis), mu.shape)
+        a = mu + explore * jnp.exp(log_std) * jax.random.normal(_shard_key(k, axis), mu.shape)
         nxt = step(env_state, a)
         # bootstrap time limits only; the value of the final observations only at a step where one truncates
         v_final = jax.lax.cond(nxt.truncated.any(), lambda o: apply(o)[2], lambda o: jnp.zeros_like(v),
@@ -222,6 +230,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
         raise DragMeshError("the object curriculum counts each object's episodes in one process: train it without "
                             "splitting the worlds over processes")
     env_state, rng, traj, adv, ret = _rollout(program, data, ts, axis)
+    explore = jnp.broadcast_to(_explore(program, traj["done"].shape[1], axis), traj["done"].shape)
     vs = ts.value_stats.update(ret[..., None], axis)  # value normalisation (the reference's normalize_value)
     n = traj["reward"].size  # this shard's samples (all of them: num_envs x rollout_len)
     flat = lambda x: x.reshape(n, *x.shape[2:])  # noqa: E731
@@ -239,7 +248,8 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
     batch = Batch(state=s_in, history=h_in, privileged=p_in, aux_target=ts.aux_stats.normalize(obs.aux, clip=1e6),
                   action=flat(traj["action"]), logp=flat(traj["logp"]), mu=flat(traj["mu"]),
                   mu_prev=flat(mu_prev), prev_valid=flat(prev_valid),
-                  log_std=flat(traj["log_std"]), value=norm(old_v), advantage=flat(adv), target=norm(flat(ret)))
+                  log_std=flat(traj["log_std"]), explore=flat(explore), value=norm(old_v), advantage=flat(adv),
+                  target=norm(flat(ret)))
     ts = ts.replace(value_stats=vs)
     w_aux = c.aux_weight_at(ts.epoch)
     aux_head = (lambda p, z: net.apply(p, z, method=ActorCritic.aux)) if program.use_aux else None
@@ -290,6 +300,10 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
     }
     metrics |= {k: mean(v.mean()) for k, v in m.items() if k.startswith(TERM_PREFIX)}  # per step, unnormalised
     steps = m if axis is None else {k: mean(jnp.mean(v)) for k, v in m.items()}  # what the weights' rules read
+    if c.mean_worlds:  # the constraints' costs counted on the worlds that act on the mean: the deployed policy's
+        counted = 1.0 - explore
+        steps = steps | {k: total(jnp.sum(v * counted)) / total(jnp.sum(counted))
+                         for k, v in m.items() if k.startswith(COST_PREFIX)}
     weights, metrics = program.task.update_weights(ts.weights, metrics, steps)
     return ts.replace(**weights, env_state=env_state, rng=rng, epoch=ts.epoch + 1), metrics
 

@@ -18,6 +18,8 @@ def load_excess(wrist_force: jnp.ndarray, limit: float) -> jnp.ndarray:
 BASE_TERMS = ("load", "task", "dist", "act", "time", "detach", "success", "bound", "contact")
 #: A reward term's name among a step's metrics and in the training log.
 TERM_PREFIX = "reward/"
+#: A constraint's per-step cost's name among a step's metrics (``cost_metric``).
+COST_PREFIX = "cost_"
 
 
 def term_names(cfg: RewardConfig) -> tuple[str, ...]:
@@ -85,7 +87,7 @@ def update_weights(cfg: RewardConfig, weights: dict, metrics: dict, steps: dict)
 
 def cost_metric(cfg: Constraint) -> str:
     """The name a constraint's per-step cost has among a step's metrics (its epoch mean in the training log)."""
-    return f"cost_{cfg.measure}"
+    return f"{COST_PREFIX}{cfg.measure}"
 
 
 def constraint_cost(cfg: Constraint, x: jnp.ndarray, passed: jnp.ndarray | bool = False) -> jnp.ndarray:

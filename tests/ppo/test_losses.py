@@ -70,7 +70,7 @@ def _apply(params, state, history, privileged):
 
 
 def _setup(ratio, adv, mu=None, log_std=None, value_new=None, value_old=None, target=None, mu_prev=None,
-           prev_valid=None):
+           prev_valid=None, explore=None):
     """Parameters and a batch in which the new/old probability ratio of sample i is ``ratio[i]`` (the action is
     one standard deviation above the new mean in every dimension)."""
     ratio = np.asarray(ratio, np.float32)
@@ -85,7 +85,9 @@ def _setup(ratio, adv, mu=None, log_std=None, value_new=None, value_old=None, ta
                   aux_target=jnp.zeros((B, 1)), action=action, logp=logp_new - jnp.log(ratio), mu=mu,
                   mu_prev=mu if mu_prev is None else jnp.asarray(mu_prev, jnp.float32),
                   prev_valid=jnp.ones(B) if prev_valid is None else jnp.asarray(prev_valid, jnp.float32),
-                  log_std=jnp.broadcast_to(log_std, mu.shape), value=zeros if value_old is None else value_old,
+                  log_std=jnp.broadcast_to(log_std, mu.shape),
+                  explore=jnp.ones(B) if explore is None else jnp.asarray(explore, jnp.float32),
+                  value=zeros if value_old is None else value_old,
                   advantage=jnp.asarray(adv, jnp.float32), target=zeros if target is None else target)
     return params, batch
 
@@ -123,6 +125,18 @@ def test_no_gradient_through_a_sample_clipped_in_the_direction_of_its_advantage(
     params, batch = _setup(RATIO, ADV)
     grads, _ = jax.grad(_loss, has_aux=True)(params, batch)
     want = -np.asarray(RATIO) * np.asarray(ADV) / 6 * np.array([1, 1, 0, 1, 1, 0])
+    np.testing.assert_allclose(np.asarray(grads["mu"])[:, 0], want, rtol=1e-5, atol=1e-7)
+
+
+def test_the_surrogate_is_over_the_sampled_actions_alone():
+    """Samples of worlds that acted on the mean (explore 0) neither enter the surrogate's mean nor get its gradient:
+    with the last four of RATIO/ADV so marked, the loss is the first two's, (2.2 - 0.9) / 2."""
+    explore = [1, 1, 0, 0, 0, 0]
+    params, batch = _setup(RATIO, ADV, explore=explore)
+    _, info = _loss(params, batch)
+    assert float(info["policy_loss"]) == pytest.approx(-(2.2 - 0.9) / 2, rel=1e-5)
+    grads, _ = jax.grad(_loss, has_aux=True)(params, batch)
+    want = -np.asarray(RATIO) * np.asarray(ADV) / 2 * np.asarray(explore)
     np.testing.assert_allclose(np.asarray(grads["mu"])[:, 0], want, rtol=1e-5, atol=1e-7)
 
 

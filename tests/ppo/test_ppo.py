@@ -92,6 +92,37 @@ def test_ppo_solves_a_point_mass():
     assert last > 0.7 * first
 
 
+class CostlyPointMass(PointMass):
+    """The point mass with a constraint's per-step cost, the squared first action channel as the policy gave it
+    (before the clip), and the cost its weights' rule was given (``counted``) among the epoch's metrics."""
+
+    def reset(self, key, damping_scale=None, start=None):
+        s = super().reset(key, damping_scale, start)
+        return s.replace(metrics={**s.metrics, "cost_action": jnp.float32(0)})
+
+    def step(self, s, action):
+        n = super().step(s, action)
+        return n.replace(metrics={**n.metrics, "cost_action": action[0] ** 2})
+
+    def update_weights(self, weights, metrics, steps):
+        return weights, {**metrics, "counted": jnp.mean(steps["cost_action"])}
+
+
+def test_mean_worlds_act_on_the_mean_and_the_costs_are_counted_on_them():
+    """With 4 of 16 worlds on the mean, the cost the weights' rule reads is the mean action's (the freshly built
+    policy's mean is near 0), where with none it is the sampled one's, about the policy's variance std^2 = e^-2."""
+    net = NetworkConfig(encoder="none", state_sizes=(16,), log_std_init=-1.0)
+    counted = {}
+    for mean_worlds in (0, 4):
+        program = make_train(CostlyPointMass(), net, PPOConfig(num_envs=16, rollout_len=30, mean_worlds=mean_worlds),
+                             "state_only")
+        ts = init_jit(program, program.task.data, jax.random.PRNGKey(0))
+        _, m = epoch_jit(program, program.task.data, ts)
+        counted[mean_worlds] = float(m["counted"])
+    assert counted[0] == pytest.approx(np.exp(-2.0), rel=0.25)
+    assert counted[4] < 0.05 * counted[0]
+
+
 def test_gae_truncation_and_termination():
     r = jnp.array([[1.0], [1.0], [1.0]])
     v = jnp.zeros((3, 1))
@@ -131,6 +162,8 @@ def test_bad_ppo_config():
         PPOConfig(num_envs=0)
     with pytest.raises(DragMeshError):
         PPOConfig(num_envs=3, rollout_len=3, num_minibatches=2)
+    with pytest.raises(DragMeshError, match="mean_worlds"):  # at least one world must explore
+        PPOConfig(num_envs=4, mean_worlds=4)
 
 
 def test_policy_trained_on_one_backend_loads_on_the_other(tmp_path):
