@@ -151,7 +151,7 @@ FLAG_VALUES = {
             "kl_threshold": 0.01, "clip_eps": 0.1, "update_epochs": 2, "num_minibatches": 2, "value_coef": 0.5,
             "clip_value": False, "entropy_coef": 1e-3, "bounds_coef": 0.02, "aux_weight": 0.02, "aux_warmup": (2, 4),
             "aux_channel_weights": (1.0, 1.0, 1.0, 1.0), "max_grad_norm": 0.5, "normalize_obs": False,
-            "normalize_advantage": False, "smooth_coef": 0.5, "mean_worlds": 2},
+            "normalize_advantage": False, "smooth_coef": 0.5, "mean_share": 0.25},
     "network": {"encoder": "gru", "critic": "privileged", "state_sizes": (64, 64), "hist_dim": 32, "heads": 2,
                 "log_std_init": -1.5, "critic_sizes": (64,)},
 }

@@ -94,10 +94,10 @@ PEAK_BOUND: dict[str, Any] = {**LOAD_BOUND, "task.reward.constraints": (
     bounded(RELATIVE_LOAD, 1.1, "peak", budget=0.05),), **OWN_START}
 
 #: The budget counted on the deployed policy (issue 33): an eighth of the worlds act on the policy's mean, and the
-#: constraints' costs are theirs (PPOConfig.mean_worlds). The sampled actions cross a limit at the expert's peak in
+#: constraints' costs are theirs (PPOConfig.mean_share). The sampled actions cross a limit at the expert's peak in
 #: 3.4-4.6% of steps on 45661 where their mean crosses it in 0-1% (RESULTS.md §3b): counted on the samples, a budget
 #: the evaluated policy keeps reads as broken and the multiplier climbs to its cap.
-MEAN_COUNTED: dict[str, Any] = {"ppo.mean_worlds": 8}
+MEAN_COUNTED: dict[str, Any] = {"ppo.mean_share": 0.125}
 
 
 def beside_load_bound(measure: str, limit: float, cost: str, budget: float) -> dict[str, Any]:

@@ -33,11 +33,11 @@ class PPOConfig:
     # beyond the paper: c_s, the action mean's temporal smoothness loss c_s mean_i (mu_t,i - mu_(t-1),i)^2 over
     # consecutive steps of an episode (CAPS's temporal term, Mysore et al. 2021), mu_(t-1) the rollout's; 0: none
     smooth_coef: float = 0.0
-    # beyond the paper: the first mean_worlds of the num_envs worlds act on the policy's mean, without exploration
-    # noise: the deployed policy, on which the constraints' costs are counted (the evaluation reads it; the sampled
-    # actions pass a limit more often than their mean does); their steps train the critic, not the actor. 0: every
-    # world samples and the costs are counted on them all
-    mean_worlds: int = 0
+    # beyond the paper: this share of the worlds (``mean_worlds`` of them, rounded up) acts on the policy's mean,
+    # without exploration noise: the deployed policy, on which the constraints' costs are counted (the evaluation
+    # reads it; the sampled actions pass a limit more often than their mean does); their steps train the critic, not
+    # the actor. 0: every world samples and the costs are counted on them all
+    mean_share: float = 0.0
     aux_weight: float = 0.01  # w_aux after warm-up (Table 10); 0: no auxiliary loss
     aux_warmup: tuple[int, int] = (10, 40)  # w_aux = 0 before the first epoch, linear to aux_weight by the second
     aux_channel_weights: tuple[float, float, float, float] = (1.0, 1.0, 0.5, 0.5)  # the auxiliary loss per channel
@@ -48,8 +48,9 @@ class PPOConfig:
     def __post_init__(self):
         if min(self.num_envs, self.rollout_len, self.update_epochs, self.num_minibatches) < 1:
             raise DragMeshError("num_envs, rollout_len, update_epochs and num_minibatches must be >= 1")
-        if not 0 <= self.mean_worlds < self.num_envs:
-            raise DragMeshError(f"mean_worlds must be in [0, num_envs) = [0, {self.num_envs}), got {self.mean_worlds}")
+        if not (0 <= self.mean_share < 1 and self.mean_worlds < self.num_envs):
+            raise DragMeshError(f"mean_share must be in [0, 1) and leave a world of the {self.num_envs} that samples, "
+                                f"got {self.mean_share}")
         if (self.num_envs * self.rollout_len) % self.num_minibatches:
             raise DragMeshError(f"num_envs * rollout_len ({self.num_envs * self.rollout_len}) must divide into "
                                 f"{self.num_minibatches} minibatches")
@@ -63,6 +64,11 @@ class PPOConfig:
             raise DragMeshError(f"smooth_coef must be finite and >= 0, got {self.smooth_coef}")
         if not 0 < self.clip_eps < math.inf:
             raise DragMeshError(f"clip_eps must be finite and > 0, got {self.clip_eps}")
+
+    @property
+    def mean_worlds(self) -> int:
+        """How many worlds act on the policy's mean (``mean_share`` of ``num_envs``, rounded up)."""
+        return math.ceil(self.mean_share * self.num_envs)
 
     def aux_weight_at(self, epoch):
         """w_aux(epoch): 0 -> aux_weight, linear over ``aux_warmup`` (epochs counted from 0)."""

@@ -3,7 +3,7 @@
 Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds - c_e H + w_aux L_aux, with the clipped surrogate, the
 clipped value loss in the normalised value space, rl_games' bounds loss on the action mean beyond +-1.1, and the
 auxiliary loss in z-scored target space (design §6-§7); beyond the paper, + c_s L_smooth when ``smooth_coef`` is
-set, and the surrogate over the sampled actions alone when some worlds act on the mean (``mean_worlds``). KL(old ||
+set, and the surrogate over the sampled actions alone when some worlds act on the mean (``mean_share``). KL(old ||
 new) is reported as rl_games computes it.
 """
 
@@ -35,7 +35,7 @@ class Batch:
     mu_prev: jnp.ndarray  # rollout-time action mean of the step before (the smoothness loss's target)
     prev_valid: jnp.ndarray  # 1 where that step is of the same episode and in this rollout
     log_std: jnp.ndarray
-    explore: jnp.ndarray  # 1 where the action was sampled, 0 where a world acted on the mean (PPOConfig.mean_worlds)
+    explore: jnp.ndarray  # 1 where the action was sampled, 0 where a world acted on the mean (PPOConfig.mean_share)
     value: jnp.ndarray  # normalised value prediction at rollout time
     advantage: jnp.ndarray
     target: jnp.ndarray  # normalised return target

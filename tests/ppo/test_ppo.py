@@ -109,16 +109,16 @@ class CostlyPointMass(PointMass):
 
 
 def test_mean_worlds_act_on_the_mean_and_the_costs_are_counted_on_them():
-    """With 4 of 16 worlds on the mean, the cost the weights' rule reads is the mean action's (the freshly built
+    """With a quarter of 16 worlds on the mean, the cost the weights' rule reads is the mean action's (the freshly built
     policy's mean is near 0), where with none it is the sampled one's, about the policy's variance std^2 = e^-2."""
     net = NetworkConfig(encoder="none", state_sizes=(16,), log_std_init=-1.0)
     counted = {}
-    for mean_worlds in (0, 4):
-        program = make_train(CostlyPointMass(), net, PPOConfig(num_envs=16, rollout_len=30, mean_worlds=mean_worlds),
-                             "state_only")
+    for share in (0.0, 0.25):
+        config = PPOConfig(num_envs=16, rollout_len=30, mean_share=share)
+        program = make_train(CostlyPointMass(), net, config, "state_only")
         ts = init_jit(program, program.task.data, jax.random.PRNGKey(0))
         _, m = epoch_jit(program, program.task.data, ts)
-        counted[mean_worlds] = float(m["counted"])
+        counted[config.mean_worlds] = float(m["counted"])
     assert counted[0] == pytest.approx(np.exp(-2.0), rel=0.25)
     assert counted[4] < 0.05 * counted[0]
 
@@ -162,8 +162,9 @@ def test_bad_ppo_config():
         PPOConfig(num_envs=0)
     with pytest.raises(DragMeshError):
         PPOConfig(num_envs=3, rollout_len=3, num_minibatches=2)
-    with pytest.raises(DragMeshError, match="mean_worlds"):  # at least one world must explore
-        PPOConfig(num_envs=4, mean_worlds=4)
+    assert PPOConfig(num_envs=4, mean_share=0.1).mean_worlds == 1  # rounded up
+    with pytest.raises(DragMeshError, match="mean_share"):  # at least one world must explore
+        PPOConfig(num_envs=1, mean_share=0.1)
 
 
 def test_policy_trained_on_one_backend_loads_on_the_other(tmp_path):
