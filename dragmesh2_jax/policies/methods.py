@@ -99,6 +99,13 @@ PEAK_BOUND: dict[str, Any] = {**LOAD_BOUND, "task.reward.constraints": (
 #: the evaluated policy keeps reads as broken and the multiplier climbs to its cap.
 MEAN_COUNTED: dict[str, Any] = {"ppo.mean_share": 0.125}
 
+#: The peak bound charged to the horizon (issue 33): counted on the mean, PEAK_BOUND still ended unmet on the
+#: validation doors (45780: 0.27-0.48 of steps against 0.05), their policies opening in 65-68 steps where the expert
+#: takes 99-102: past the limit, an episode that then succeeds at once stops paying. With the ``horizon`` cost it
+#: pays for every step it had left (RESULTS.md §3b).
+HORIZON_BOUND: dict[str, Any] = {**PEAK_BOUND, "task.reward.constraints": (
+    bounded(RELATIVE_LOAD, 1.1, "horizon", budget=0.05),)}
+
 
 def beside_load_bound(measure: str, limit: float, cost: str, budget: float) -> dict[str, Any]:
     """LOAD_BOUND and a second constraint on ``measure``, its multiplier moving as the load's (lr 2, cap 100)."""
@@ -200,6 +207,10 @@ METHODS = {m.name: m for m in (
            "an eighth of the worlds act on it, and their steps move the multiplier and train the critic alone "
            "(RESULTS.md §3b); 150 epochs, read at its final checkpoint",
            {**HOLD, **READ_FINAL, **RESIDUAL, **PEAK_BOUND, **SMOOTH, **MEAN_COUNTED}),
+    Method("hold_blind_residual_horizon", "hold_blind_residual_peak_mean with the peak's cost charged to the "
+           "horizon: an episode that succeeds after pulling past the bound pays for every step it had left, so a "
+           "quick finish does not dodge it (RESULTS.md §3b); 150 epochs, read at its final checkpoint",
+           {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED}),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average (RESULTS.md §3b); 150 "
            "epochs, read at its final checkpoint",

@@ -76,8 +76,12 @@ EXPERT_UNITS = ("grasp", "start")
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit), ``peak``
 #: 1[max_{s<=t} x_s > limit] (the episode's running peak past it, so E[c_t] is the share of steps after an episode
-#: first passed the limit: a bound on the episode's peak, which a rate leaves free for a step or two).
-COSTS = ("excess", "rate", "peak")
+#: first passed the limit: a bound on the episode's peak, which a rate leaves free for a step or two), ``horizon`` the
+#: peak's cost charged to the episode's horizon: an episode that succeeds after passing the limit also pays, in r_t, the
+#: T - t steps it had left (as it would have going on), so that a pass then a quick finish does not dodge the bound.
+COSTS = ("excess", "rate", "peak", "horizon")
+#: The costs that remember the episode's first pass (the env keeps it; a privileged critic sees it).
+PEAK_COSTS = ("peak", "horizon")
 
 
 #: How the constraints' penalty enters r_t. ``plain``: r_t - sum_i lambda_i c_i. ``normalized``: (r_t - sum_i lambda_i

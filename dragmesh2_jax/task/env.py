@@ -56,7 +56,7 @@ from dragmesh2_jax.physics.contacts import ContactBudget
 from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
-from dragmesh2_jax.task.config import ResetNoise, TaskConfig
+from dragmesh2_jax.task.config import PEAK_COSTS, ResetNoise, TaskConfig
 from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
@@ -66,6 +66,7 @@ from dragmesh2_jax.task.rewards import (
     bound_weights,
     constraint_cost,
     cost_metric,
+    ended_early_charge,
     initial_weights,
     reconfig_bonus,
     reward_terms,
@@ -308,7 +309,7 @@ class PullTask:
         return jnp.concatenate(parts).astype(jnp.float32)
 
     def _privileged(self, info, k: Kinematics) -> jnp.ndarray:  # and the peak constraints' memory: costs to come
-        peak = np.asarray([x.cost == "peak" for x in self.config.reward.constraints], bool)
+        peak = np.asarray([x.cost in PEAK_COSTS for x in self.config.reward.constraints], bool)
         return jnp.concatenate([randomize.privileged(info["scales"]), load(k), info["passed"][peak] * 1.0])
 
     def _aux(self, info) -> jnp.ndarray:
@@ -439,9 +440,8 @@ class PullTask:
         terms = reward_terms(c.reward, a, ev.d, ev.q - info["q_prev"], ev.success.astype(jnp.float32),
                              ev.detach.astype(jnp.float32), k.force[:3])
         if c.reward.constraints:
-            terms["constraints"] = -jnp.dot(p.multipliers, costs)
-            if c.reward.lagrangian == "normalized":  # the detached episode's remaining steps, each past every limit
-                terms["constraints"] -= ev.detach * p.multipliers.sum() * (c.episode_length - ev.step)
+            terms["constraints"] = -jnp.dot(p.multipliers, costs) - ended_early_charge(
+                c.reward, p.multipliers, costs, ev.detach, ev.success, c.episode_length - ev.step)
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         d_long, q_long = ring(info["d_long"], ev.d), ring(info["q_long"], ev.q)
         stall, cooldown = info["stall"], info["cooldown"]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from dragmesh2_jax.task.config import AramConfig, Constraint, ReconfigConfig, RewardConfig
+from dragmesh2_jax.task.config import PEAK_COSTS, AramConfig, Constraint, ReconfigConfig, RewardConfig
 
 
 def load_excess(wrist_force: jnp.ndarray, limit: float) -> jnp.ndarray:
@@ -96,9 +96,20 @@ def constraint_cost(cfg: Constraint, x: jnp.ndarray, passed: jnp.ndarray | bool 
     moves the multiplier."""
     if cfg.cost == "rate":
         return (x > cfg.limit).astype(jnp.float32)
-    if cfg.cost == "peak":
+    if cfg.cost in PEAK_COSTS:
         return (passed | (x > cfg.limit)).astype(jnp.float32)
     return jnp.maximum(x - cfg.limit, 0.0) / cfg.limit
+
+
+def ended_early_charge(cfg: RewardConfig, multipliers, costs, detach, success, left) -> jnp.ndarray:
+    """What an episode that ends with ``left`` steps to its horizon still pays in r_t, per step left: a detached one,
+    in the normalised Lagrangian, as past every limit (``config.LAGRANGIANS``); a successful one its ``horizon``
+    constraints' costs as they stand (``config.COSTS``). ``costs``: this step's, in the config's order."""
+    horizon = jnp.asarray([x.cost == "horizon" for x in cfg.constraints], jnp.float32)
+    charge = success * jnp.dot(multipliers * horizon, costs)
+    if cfg.lagrangian == "normalized":
+        charge = charge + detach * multipliers.sum()
+    return left * charge
 
 
 def aram_penalty(cfg: AramConfig, lam, stall, d, action, q_resp, delta, revolute):

@@ -184,6 +184,30 @@ def test_a_normalized_lagrangian_charges_a_detached_episode_every_step_it_had_le
         assert float(charged) == pytest.approx((float(free) - 5.0 * (T - t) * detach) / 6.0, rel=1e-5, abs=1e-5)
 
 
+def test_a_horizon_cost_charges_a_successful_episode_past_its_limit_every_step_it_had_left():
+    """Multipliers (2, 3) on a peak and a horizon constraint, both past their limits this step (cost 1 each): a world
+    that succeeds at step t pays 3 (T - t) more than one that does not end (the horizon's), a peak cost alone nothing
+    more; with the horizon's cost 0 a success pays nothing more (plain Lagrangian: no division)."""
+    limits = (Constraint("palm_speed", 1.0, "peak"), Constraint("load", 1.0, "horizon"))
+    task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(constraints=limits))
+    task = task.bind(task.data.replace(params=task.data.params.replace(multipliers=jnp.asarray([2.0, 3.0]))))
+    T, t = task.config.episode_length, 10
+
+    def reward(success, costs):
+        s = task.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
+        k = task.kinematics(s.physics)
+        ev = Events(d=jnp.float32(0.2), q=k.obj_q, success=jnp.bool_(success), detach=jnp.bool_(False),
+                    terminated=jnp.bool_(success), truncated=jnp.bool_(False), step=jnp.int32(t))
+        return task._reward(s, jnp.zeros(51), k, ev, jnp.bool_(True), jnp.asarray(costs, jnp.float32))[1]
+
+    (won, going), (won_within, going_within) = jax.device_get(jax.jit(lambda: (
+        (reward(True, [1.0, 1.0]), reward(False, [1.0, 1.0])), (reward(True, [1.0, 0.0]), reward(False, [1.0, 0.0]))
+    ))())
+    assert float(going["constraints"]) == pytest.approx(-5.0)
+    assert float(won["constraints"]) == pytest.approx(-5.0 - 3.0 * (T - t))
+    assert float(won_within["constraints"]) == float(going_within["constraints"]) == pytest.approx(-2.0)
+
+
 def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps_it_in_bounds():
     c = Constraint(budget=0.01, lr=50.0, lambda_max=20.0)
     assert float(multiplier_update(c, 1.0, 0.03)) == pytest.approx(2.0)  # 1 + 50 (0.03 - 0.01)
@@ -196,6 +220,9 @@ def test_dual_ascent_raises_the_multiplier_over_budget_lowers_it_under_and_keeps
     peak = Constraint("palm_speed", 0.25, "peak")  # every step after the episode's first past the limit pays
     assert cost(0.25, peak) == 0.0 and cost(0.26, peak) == 1.0
     assert float(constraint_cost(peak, jnp.float32(0.0), jnp.bool_(True))) == 1.0
+    horizon = Constraint("palm_speed", 0.25, "horizon")  # the peak's cost step by step (its charge at success aside)
+    assert cost(0.25, horizon) == 0.0 and cost(0.26, horizon) == 1.0
+    assert float(constraint_cost(horizon, jnp.float32(0.0), jnp.bool_(True))) == 1.0
     for bad in ({"budget": -0.1}, {"measure": "speed"}, {"cost": "square"}, {"lambda_max": float("inf")}):
         with pytest.raises(DragMeshError, match="constraint"):
             Constraint(**bad)
