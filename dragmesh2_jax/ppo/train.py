@@ -185,10 +185,10 @@ def _explore(program: TrainProgram, worlds: int, axis: str | None) -> jnp.ndarra
     return (index >= program.config.mean_worlds).astype(jnp.float32)
 
 
-def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | None = None):
+def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, explore: jnp.ndarray, axis: str | None = None):
+    """``explore``: this shard's worlds' ``_explore``."""
     c, net = program.config, program.net
     env = _env(program, data, ts)
-    explore = _explore(program, ts.env_state.done.shape[0], axis)[:, None]
     step = jax.vmap(env.step)
     vs = ts.value_stats
     denorm = lambda v: v * jnp.sqrt(vs.var[0] + 1e-5) + vs.mean[0]  # noqa: E731
@@ -199,7 +199,7 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | 
         rng, k = jax.random.split(rng)
         obs = env_state.obs
         mu, log_std, v, _ = apply(obs)
-        a = mu + explore * jnp.exp(log_std) * jax.random.normal(_shard_key(k, axis), mu.shape)
+        a = mu + explore[:, None] * jnp.exp(log_std) * jax.random.normal(_shard_key(k, axis), mu.shape)
         nxt = step(env_state, a)
         # bootstrap time limits only; the value of the final observations only at a step where one truncates
         v_final = jax.lax.cond(nxt.truncated.any(), lambda o: apply(o)[2], lambda o: jnp.zeros_like(v),
@@ -229,8 +229,9 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
     if axis is not None and program.task.config.object_curriculum:
         raise DragMeshError("the object curriculum counts each object's episodes in one process: train it without "
                             "splitting the worlds over processes")
-    env_state, rng, traj, adv, ret = _rollout(program, data, ts, axis)
-    explore = jnp.broadcast_to(_explore(program, traj["done"].shape[1], axis), traj["done"].shape)
+    explore = _explore(program, ts.env_state.done.shape[0], axis)
+    env_state, rng, traj, adv, ret = _rollout(program, data, ts, explore, axis)
+    explore = jnp.broadcast_to(explore, traj["done"].shape)  # per sample: (steps, worlds)
     vs = ts.value_stats.update(ret[..., None], axis)  # value normalisation (the reference's normalize_value)
     n = traj["reward"].size  # this shard's samples (all of them: num_envs x rollout_len)
     flat = lambda x: x.reshape(n, *x.shape[2:])  # noqa: E731

@@ -163,6 +163,16 @@ def test_action_change_is_how_far_the_applied_action_moved_since_the_last_step()
     assert expert.max() == 0.0
 
 
+def _ending_reward(env, t: int, costs, success: bool = False, detach: bool = False):
+    """``env._reward``'s (reward, terms) of a step t of a fresh episode that ends in ``success`` or ``detach`` (or
+    not at all), with these constraint ``costs``."""
+    s = env.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
+    k = env.kinematics(s.physics)
+    ev = Events(d=jnp.float32(0.2), q=k.obj_q, success=jnp.bool_(success), detach=jnp.bool_(detach),
+                terminated=jnp.bool_(success or detach), truncated=jnp.bool_(False), step=jnp.int32(t))
+    return env._reward(s, jnp.zeros(51), k, ev, jnp.bool_(True), jnp.asarray(costs, jnp.float32))[:2]
+
+
 def test_a_normalized_lagrangian_charges_a_detached_episode_every_step_it_had_left():
     """With multipliers (2, 3) and no cost this step, a world that detaches at step t pays 5 (T - t) more than the
     plain reward, all over 1 + 5; a step that does not end in detachment pays nothing more."""
@@ -171,14 +181,7 @@ def test_a_normalized_lagrangian_charges_a_detached_episode_every_step_it_had_le
     task = task.bind(task.data.replace(params=task.data.params.replace(multipliers=jnp.asarray([2.0, 3.0]))))
     plain = load_task(OBJ, None, backend="mujoco")
     T, t = task.config.episode_length, 10
-
-    def reward(env, detach):
-        s = env.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
-        k = env.kinematics(s.physics)
-        ev = Events(d=jnp.float32(0.2), q=k.obj_q, success=jnp.bool_(False), detach=jnp.bool_(detach),
-                    terminated=jnp.bool_(detach), truncated=jnp.bool_(False), step=jnp.int32(t))
-        return env._reward(s, jnp.zeros(51), k, ev, jnp.bool_(True), jnp.zeros(2))[0]
-
+    reward = lambda env, detach: _ending_reward(env, t, [0.0, 0.0], detach=detach)[0]  # noqa: E731
     for detach in (True, False):
         charged, free = jax.device_get(jax.jit(lambda d=detach: (reward(task, d), reward(plain, d)))())
         assert float(charged) == pytest.approx((float(free) - 5.0 * (T - t) * detach) / 6.0, rel=1e-5, abs=1e-5)
@@ -192,14 +195,7 @@ def test_a_horizon_cost_charges_a_successful_episode_past_its_limit_every_step_i
     task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(constraints=limits))
     task = task.bind(task.data.replace(params=task.data.params.replace(multipliers=jnp.asarray([2.0, 3.0]))))
     T, t = task.config.episode_length, 10
-
-    def reward(success, costs):
-        s = task.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
-        k = task.kinematics(s.physics)
-        ev = Events(d=jnp.float32(0.2), q=k.obj_q, success=jnp.bool_(success), detach=jnp.bool_(False),
-                    terminated=jnp.bool_(success), truncated=jnp.bool_(False), step=jnp.int32(t))
-        return task._reward(s, jnp.zeros(51), k, ev, jnp.bool_(True), jnp.asarray(costs, jnp.float32))[1]
-
+    reward = lambda success, costs: _ending_reward(task, t, costs, success=success)[1]  # noqa: E731
     (won, going), (won_within, going_within) = jax.device_get(jax.jit(lambda: (
         (reward(True, [1.0, 1.0]), reward(False, [1.0, 1.0])), (reward(True, [1.0, 0.0]), reward(False, [1.0, 0.0]))
     ))())
