@@ -123,6 +123,11 @@ SMOOTH: dict[str, Any] = {"ppo.smooth_coef": 100.0}
 #: The expert's pace as a ceiling (issue 33): the part at most a tenth of its range ahead of the expert drag's
 #: schedule (``lead``) in all but 5% of steps, a CMDP constraint beside the load bound; each object's expert sets it.
 LEAD_BOUND = beside_load_bound("lead", 0.1, "rate", budget=0.05)
+#: The residual's reach in force (issue 33): the policy's whole action range moves the hand's target a quarter of
+#: alpha from the drag's (TaskConfig.residual_scale), at the wrist's stiffness (3000 N/m) at most 38 N added where
+#: at 1 it is 150 N and its exploration noise alone about 20 N: on the validation doors (the expert's peak 44-56 N)
+#: the horizon bound's policies pulled 1.3-1.4x the expert's load at its pace (RESULTS.md §3b).
+FINE: dict[str, Any] = {"task.residual_scale": 0.25}
 #: Residual learning over the expert drag (TaskConfig.expert_prior).
 RESIDUAL: dict[str, Any] = {"task.expert_prior": True}
 #: Contact-load sensors (wrist F/T, palm and phalanx touch) in s_t and in every history token.
@@ -211,6 +216,10 @@ METHODS = {m.name: m for m in (
            "horizon: an episode that succeeds after pulling past the bound pays for every step it had left, so a "
            "quick finish does not dodge it (RESULTS.md §3b); 150 epochs, read at its final checkpoint",
            {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED}),
+    Method("hold_blind_residual_fine", "hold_blind_residual_horizon with the residual's reach a quarter of the "
+           "action range: the force it can add over the expert drag's at most 38 N (RESULTS.md §3b); 150 epochs, "
+           "read at its final checkpoint",
+           {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED, **FINE}),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average (RESULTS.md §3b); 150 "
            "epochs, read at its final checkpoint",

@@ -215,6 +215,10 @@ class TaskConfig:
     # moves the hand to the drag's target for this step at its own pace (the tracking_delta baseline's action), both
     # clipped to [-1, 1]; a policy that outputs zeros replays the expert (the hand only: the drag is the hand's)
     expert_prior: bool = False
+    # beyond the paper, under expert_prior: the policy's action scaled by this before it adds to the expert's, so
+    # that its full range moves the hand's target residual_scale x alpha from the drag's (with the wrist's stiffness,
+    # the force a residual can add; its exploration noise scaled alike); 1: the policy's whole action range
+    residual_scale: float = 1.0
     # beyond the paper, the unit of the relative_load measure: one of EXPERT_UNITS (task/expert.py)
     expert_load_unit: str = "grasp"
     reward: RewardConfig = field(default_factory=RewardConfig)
@@ -256,6 +260,9 @@ class TaskConfig:
             raise DragMeshError(f"friction_range must satisfy 0 <= lo <= hi, got {self.friction_range}")
         if self.contacts is not None and self.contacts < 1:
             raise DragMeshError(f"contacts per world must be >= 1, got {self.contacts}")
+        if not 0 < self.residual_scale <= 1 or (self.residual_scale != 1 and not self.expert_prior):
+            raise DragMeshError(f"residual_scale must be in (0, 1] and below 1 only with expert_prior, got "
+                                f"{self.residual_scale}")
         if not 0 <= self.object_curriculum <= 1:
             raise DragMeshError(f"object_curriculum must be in [0, 1], got {self.object_curriculum}")
         if not 0 < self.rho <= 1:

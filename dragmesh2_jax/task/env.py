@@ -379,12 +379,12 @@ class PullTask:
 
     def step(self, state: State, action: jnp.ndarray) -> State:
         """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits) (with
-        ``expert_prior``, a the policy's residual over the expert drag's action)."""
+        ``expert_prior``, residual_scale x a the policy's residual over the expert drag's action)."""
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state.physics)
         if self.config.expert_prior:  # the residual over the expert drag's action of this step
             prior = (self.params.drag[state.info["step"]] - k0.hand_q) / self.config.alpha  # one row per step
-            a = jnp.clip(a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
+            a = jnp.clip(self.config.residual_scale * a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)
 
