@@ -5,8 +5,8 @@ in one compiled program. Cells, traces and video frames are views of its result.
 Without ``steps`` it runs until every world has finished its first episode (at most the episode length) and returns
 per-world accumulations of that first episode (:func:`cells` reads them). With ``steps`` it runs exactly that many
 control steps and also records, per step and world, the object q, the effector q and the load sensors (wrist force
-and torque, touch) before the step and whether the first episode has ended (:func:`trace` and :func:`frames` read
-those); a world whose episode ended keeps stepping from its final state (no reset), counted nowhere.
+and torque, touch) before the step, the policy's action and whether the first episode has ended (:func:`trace` and
+:func:`frames` read those); a world whose episode ended keeps stepping from its final state (no reset), counted nowhere.
 
 Compiled rollouts are shared: with a controller ``key`` (what the policy depends on besides its params) and the
 task's signature, every object, checkpoint and seed of the same structure reuses one program (jax's own cache,
@@ -93,7 +93,8 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
             **{k: jnp.where(live, m[src], acc[k]) for k, src in (
                 ("success", "success"), ("detach", "detach"), ("progress", "progress"), ("ret", "episode_return"))},
         }
-        record = {"q": m["q"], "hand_q": before.hand_q, "obj_q": before.obj_q, "live": live, "force": before.force}
+        record = {"q": m["q"], "hand_q": before.hand_q, "obj_q": before.obj_q, "live": live, "force": before.force,
+                  "policy": u}
         return state, live & ~state.done, acc, key, record
 
     live0 = jnp.ones(n, bool)
@@ -119,8 +120,8 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
 def rollout(task: PullTask, policy: Policy, params: Any, dampings: list[float], episodes: int = 1, seed: int = 0,
             controls: str = "actions", steps: int | None = None, key: Hashable | None = None) -> dict:
     """Run the rollout; host arrays: ``acc`` (per-world accumulations, see :func:`cells`) and with ``steps`` the
-    per-step records ``q``, ``hand_q``, ``obj_q``, ``force`` (the load sensors), ``wrist_load`` (N), ``live`` (steps x
-    worlds [x DoFs])."""
+    per-step records ``q``, ``hand_q``, ``obj_q``, ``force`` (the load sensors), ``wrist_load`` (N), ``live`` and
+    ``policy`` (the policy's own action, before a residual adds to the expert's) (steps x worlds [x DoFs])."""
     r = Rollout(task, policy, tuple(float(d) for d in np.repeat(dampings, episodes)), episodes, controls, steps, key)
     out = jax.tree.map(np.asarray, jax.device_get(_run(r, task.sized(len(r.scales)).data, params,
                                                        jax.random.PRNGKey(seed))))
