@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from dragmesh2_jax.assets.procedural import default_objects_dir
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.io import object_hash
@@ -176,9 +177,20 @@ class RunSpec:
                 raise DragMeshError(f"{where}: {SECTIONS[k].__name__} must be an object, got {type(v).__name__}")
         if fmt < 4:
             sections = _upgraded(record["method"], sections)
-        return cls(method=record["method"], object=record["object"], objects=tuple(o["folder"] for o in objects),
+        return cls(method=record["method"], object=installed(record["object"]),
+                   objects=tuple(installed(o["folder"]) for o in objects),
                    holdout=holdout, finetune=record.get("finetune"), parent=record.get("parent"),
                    **{k: config_from_dict(c, sections[k], where) for k, c in SECTIONS.items()})
+
+
+def installed(folder: str) -> str:
+    """A recorded object folder as this install has it: a packaged object recorded by another checkout or install of
+    the package (``assets/procedural.default_objects_dir``, which a record names absolutely) is this one's; any
+    other folder stands as recorded."""
+    here, p = default_objects_dir(), Path(folder)
+    if not p.is_dir() and p.parent.parts[-3:] == here.parts[-3:] and (here / p.name).is_dir():
+        return str(here / p.name)
+    return folder
 
 
 def _upgraded(method: str, sections: dict) -> dict:

@@ -12,7 +12,7 @@ import jax
 import numpy as np
 import pytest
 
-from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.assets.procedural import default_object, packaged_object
 from dragmesh2_jax.cli.flags import NOT_FLAGS, flag_value
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import PAPER
@@ -116,6 +116,21 @@ def test_a_malformed_record_is_one_error_line(record, fragment):
         RunSpec.from_record(record)
     assert "\n" not in str(e.value)
     assert RunSpec.from_record(GOOD) == RunSpec("pica", str(Path("obj").resolve()))
+
+
+def test_a_packaged_object_recorded_by_another_checkout_reads_as_this_install_s():
+    """A record names its object folder absolutely: a packaged object recorded where another checkout or install
+    kept the package is this install's (the run reads after the checkout moves); any other folder, found or not,
+    stands as recorded."""
+    elsewhere = "/gone/checkout/dragmesh2_jax/data/objects"
+    record = {**GOOD, "object": f"{elsewhere}/door_cabinet_0000",
+              "objects": [{"folder": f"{elsewhere}/door_cabinet_0000", "hash": ""},
+                          {"folder": f"{elsewhere}/drawer_cabinet_0000", "hash": ""}]}
+    spec = RunSpec.from_record(record)
+    assert spec.object == str(packaged_object("door_cabinet_0000"))
+    assert spec.objects == (spec.object, str(packaged_object("drawer_cabinet_0000")))
+    for other in ("/gone/objects/door_cabinet_0000", f"{elsewhere}/no_such_object"):
+        assert RunSpec.from_record({**GOOD, "object": other}).object == other
 
 
 def test_a_recorded_fixed_damping_reads_as_a_range_of_one_value():
