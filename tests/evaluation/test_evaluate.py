@@ -2,6 +2,7 @@
 function as the only interface, det cells that are distributions over distinct perturbed starts."""
 
 import dataclasses
+from types import SimpleNamespace
 
 import jax.numpy as jnp
 import numpy as np
@@ -78,7 +79,7 @@ def test_the_episodes_of_a_cell_start_from_distinct_starts_and_every_cell_from_t
 
 def test_cells_traces_and_frames_are_views_of_one_rollout(drawer_task):
     """A fixed-length rollout's first episodes give the same cells as the early-stopping one; its trace and
-    frames read the same steps."""
+    frames read the same steps; it records the policy's own action every step."""
     task = EvalProtocol(starts=None).task(drawer_task)
     policy, T = _pull_policy(task, 0.0), 40
     short = rollout(task, policy, jnp.float32(1.0), [1.0, 4.0], 1, seed=3)
@@ -88,6 +89,8 @@ def test_cells_traces_and_frames_are_views_of_one_rollout(drawer_task):
         np.testing.assert_array_equal(short["acc"][k][finished], full["acc"][k][finished])
     tr, fr = trace(full), frames(full, [1.0, 4.0])
     assert tr["q"].shape == (T, 2) and tr["hand_q"].shape == (T, 2, 51)
+    pulls = np.asarray(policy(jnp.float32(1.0), SimpleNamespace(state=np.zeros((1, 1))), None))[0]
+    np.testing.assert_allclose(full["policy"], np.broadcast_to(pulls, (T, 2, 51)))  # the policy's own action
     for i, f in enumerate(fr):
         assert f["steps"] == int(min(full["acc"]["steps"][i], T)) and f["hand_q"].shape == (f["steps"], 51)
         np.testing.assert_array_equal(f["hand_q"], tr["hand_q"][: f["steps"], i])
