@@ -128,6 +128,9 @@ LEAD_BOUND = beside_load_bound("lead", 0.1, "rate", budget=0.05)
 #: at 1 it is 150 N and its exploration noise alone about 20 N: on the validation doors (the expert's peak 44-56 N)
 #: the horizon bound's policies pulled 1.3-1.4x the expert's load at its pace (RESULTS.md §3b).
 FINE: dict[str, Any] = {"task.residual_scale": 0.25}
+#: Half the reach (issue 33): at a quarter a tuning drawer (45661) detached at x4-x8 on one seed of three, the
+#: correction out of reach; at a half, 75 N per action unit along an axis, its noise about 10 N (RESULTS.md §3b).
+HALF_REACH: dict[str, Any] = {"task.residual_scale": 0.5}
 #: Residual learning over the expert drag (TaskConfig.expert_prior).
 RESIDUAL: dict[str, Any] = {"task.expert_prior": True}
 #: Contact-load sensors (wrist F/T, palm and phalanx touch) in s_t and in every history token.
@@ -220,6 +223,10 @@ METHODS = {m.name: m for m in (
            "action range: the force it can add over the expert drag's at most 38 N (RESULTS.md §3b); 150 epochs, "
            "read at its final checkpoint",
            {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED, **FINE}),
+    Method("hold_blind_residual_reach", "hold_blind_residual_horizon with the residual's reach half the action "
+           "range: the force it can add over the expert drag's at most 75 N (RESULTS.md §3b); 150 epochs, read at "
+           "its final checkpoint",
+           {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED, **HALF_REACH}),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average (RESULTS.md §3b); 150 "
            "epochs, read at its final checkpoint",
