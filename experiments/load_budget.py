@@ -50,9 +50,9 @@ def spend(task, controller, dampings: list[float], episodes: int) -> list[dict]:
     rel = r["wrist_load"] / units[None, :]
     c = task.config
     residual = c.expert_prior and controller.controls == "actions"  # the expert's replay sets targets, not actions
-    reach = task.scene.config.hand.virtual.kp * c.residual_scale * c.alpha * residual  # N per action unit
+    reach = task.scene.config.hand.virtual.kp * c.residual_scale * c.alpha if residual else 0.0  # N per action unit
     pull = reach * np.linalg.norm(r["policy"][..., :3], axis=-1)
-    early = np.arange(len(rel))[:, None] < task.config.episode_length // 10
+    early = np.arange(len(rel))[:, None] < c.episode_length // 10
     rows = []
     for d in dampings:
         cols = scales == d

@@ -123,18 +123,22 @@ SMOOTH: dict[str, Any] = {"ppo.smooth_coef": 100.0}
 #: The expert's pace as a ceiling (issue 33): the part at most a tenth of its range ahead of the expert drag's
 #: schedule (``lead``) in all but 5% of steps, a CMDP constraint beside the load bound; each object's expert sets it.
 LEAD_BOUND = beside_load_bound("lead", 0.1, "rate", budget=0.05)
-#: The residual's reach in force (issue 33): the policy's whole action range moves the hand's target a quarter of
-#: alpha from the drag's (TaskConfig.residual_scale), at the wrist's stiffness (3000 N/m) at most 38 N added where
-#: at 1 it is 150 N and its exploration noise alone about 20 N: on the validation doors (the expert's peak 44-56 N)
-#: the horizon bound's policies pulled 1.3-1.4x the expert's load at its pace (RESULTS.md §3b).
-FINE: dict[str, Any] = {"task.residual_scale": 0.25}
-#: Half the reach (issue 33): at a quarter a tuning drawer (45661) detached at x4-x8 on one seed of three, the
-#: correction out of reach; at a half, 75 N per action unit along an axis, its noise about 10 N (RESULTS.md §3b).
-HALF_REACH: dict[str, Any] = {"task.residual_scale": 0.5}
+
+
+def reach(scale: float) -> dict[str, Any]:
+    """The residual's reach in force (issue 33): the policy's whole action range moves the hand's target ``scale`` x
+    alpha from the drag's (TaskConfig.residual_scale); at the translation drives' stiffness (3000 N/m) one action
+    unit at 1 is 150 N and its exploration noise alone about 20 N, where the validation doors' expert peaks at 44-56 N
+    (RESULTS.md §3b)."""
+    return {"task.residual_scale": scale}
+
+
 #: Residual learning over the expert drag (TaskConfig.expert_prior).
 RESIDUAL: dict[str, Any] = {"task.expert_prior": True}
 #: Contact-load sensors (wrist F/T, palm and phalanx touch) in s_t and in every history token.
 FORCE_OBS: dict[str, Any] = {"task.force_obs": True}
+#: hold_blind_residual_horizon's tree, which the reach methods narrow.
+HORIZON_RESIDUAL: dict[str, Any] = {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED}
 
 
 @dataclass(frozen=True)
@@ -218,15 +222,15 @@ METHODS = {m.name: m for m in (
     Method("hold_blind_residual_horizon", "hold_blind_residual_peak_mean with the peak's cost charged to the "
            "horizon: an episode that succeeds after pulling past the bound pays for every step it had left, so a "
            "quick finish does not dodge it (RESULTS.md §3b); 150 epochs, read at its final checkpoint",
-           {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED}),
+           HORIZON_RESIDUAL),
     Method("hold_blind_residual_fine", "hold_blind_residual_horizon with the residual's reach a quarter of the "
            "action range: the force it can add over the expert drag's at most 38 N (RESULTS.md §3b); 150 epochs, "
            "read at its final checkpoint",
-           {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED, **FINE}),
+           {**HORIZON_RESIDUAL, **reach(0.25)}),
     Method("hold_blind_residual_reach", "hold_blind_residual_horizon with the residual's reach half the action "
            "range: the force it can add over the expert drag's at most 75 N (RESULTS.md §3b); 150 epochs, read at "
            "its final checkpoint",
-           {**HOLD, **READ_FINAL, **RESIDUAL, **HORIZON_BOUND, **SMOOTH, **MEAN_COUNTED, **HALF_REACH}),
+           {**HORIZON_RESIDUAL, **reach(0.5)}),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average (RESULTS.md §3b); 150 "
            "epochs, read at its final checkpoint",

@@ -42,6 +42,7 @@ def test_a_residual_policy_s_own_pull_is_its_translation_action_at_the_drives_st
     drives' stiffness kp; the expert drag, not a residual, adds none."""
     task = load_task(DOOR, None, backend="mujoco", reward=BOUND, expert_prior=True, residual_scale=0.5)
     u = jnp.zeros(task.action_size).at[0].set(0.6).at[1].set(0.8)
+
     def policy(params, obs, key):
         return jnp.broadcast_to(params, (len(obs.state), task.action_size))
 
