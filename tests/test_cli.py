@@ -143,7 +143,7 @@ FLAG_VALUES = {
              "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0),
              "friction_range": (0.8, 1.2), "force_obs": True, "observation": "handle",
              "nthread": 1, "contacts": 48, "object_curriculum": 0.5, "expert_prior": True,
-             "expert_load_unit": "start", "residual_scale": 0.5},
+             "expert_load_unit": "start", "residual_scale": 0.5, "residual_scope": "translation"},
     "scene": {"scale": 0.45, "object_pos": (0.55, 0.0, 0.6), "timestep": 1 / 120, "damping": 20.0, "armature": 0.01,
               "link_areal_density": 4.0, "friction": 1.2, "collide": "all", "collision_radius": 0.3,
               "gravity": False, "solver_iterations": 5, "ls_iterations": 6},

@@ -125,12 +125,12 @@ SMOOTH: dict[str, Any] = {"ppo.smooth_coef": 100.0}
 LEAD_BOUND = beside_load_bound("lead", 0.1, "rate", budget=0.05)
 
 
-def reach(scale: float) -> dict[str, Any]:
+def reach(scale: float, scope: str = "hand") -> dict[str, Any]:
     """The residual's reach in force (issue 33): the policy's whole action range moves the hand's target ``scale`` x
-    alpha from the drag's (TaskConfig.residual_scale); at the translation drives' stiffness (3000 N/m) one action
-    unit at 1 is 150 N and its exploration noise alone about 20 N, where the validation doors' expert peaks at 44-56 N
-    (RESULTS.md §3b)."""
-    return {"task.residual_scale": scale}
+    alpha from the drag's on the channels of ``scope`` (TaskConfig.residual_scale, residual_scope); at the translation
+    drives' stiffness (3000 N/m) one action unit at 1 is 150 N and its exploration noise alone about 20 N, where the
+    validation doors' expert peaks at 44-56 N (RESULTS.md §3b)."""
+    return {"task.residual_scale": scale, "task.residual_scope": scope}
 
 
 #: Residual learning over the expert drag (TaskConfig.expert_prior).
@@ -231,6 +231,10 @@ METHODS = {m.name: m for m in (
            "range: the force it can add over the expert drag's at most 75 N (RESULTS.md §3b); 150 epochs, read at "
            "its final checkpoint",
            {**HORIZON_RESIDUAL, **reach(0.5)}),
+    Method("hold_blind_residual_pull", "hold_blind_residual_fine with only the wrist's translation narrowed: the "
+           "arm's pull it can add at most 38 N, the grasp and the wrist's rotation at the whole action range "
+           "(RESULTS.md §3b); 150 epochs, read at its final checkpoint",
+           {**HORIZON_RESIDUAL, **reach(0.25, "translation")}),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average (RESULTS.md §3b); 150 "
            "epochs, read at its final checkpoint",

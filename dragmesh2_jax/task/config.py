@@ -73,6 +73,9 @@ MEASURES = ("load", "relative_load", "lag", "lead", "palm_speed", "saturation", 
 #: grasp (``grasp``) or from the reset bank's start the world's episode began at (``start``: a start from which the
 #: expert itself pulls harder is held to what the expert pulls there, so the residual's zero keeps the bound).
 EXPERT_UNITS = ("grasp", "start")
+#: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
+#: grasp and the wrist's rotation keep the policy's whole range).
+RESIDUAL_SCOPES = ("hand", "translation")
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit), ``peak``
 #: 1[max_{s<=t} x_s > limit] (the episode's running peak past it, so E[c_t] is the share of steps after an episode
@@ -219,6 +222,8 @@ class TaskConfig:
     # that its full range moves the hand's target residual_scale x alpha from the drag's (with the wrist's stiffness,
     # the force a residual can add; its exploration noise scaled alike); 1: the policy's whole action range
     residual_scale: float = 1.0
+    # beyond the paper, the channels residual_scale narrows: one of RESIDUAL_SCOPES
+    residual_scope: str = "hand"
     # beyond the paper, the unit of the relative_load measure: one of EXPERT_UNITS (task/expert.py)
     expert_load_unit: str = "grasp"
     reward: RewardConfig = field(default_factory=RewardConfig)
@@ -263,6 +268,9 @@ class TaskConfig:
         if not 0 < self.residual_scale <= 1 or (self.residual_scale != 1 and not self.expert_prior):
             raise DragMeshError(f"residual_scale must be in (0, 1] and below 1 only with expert_prior, got "
                                 f"{self.residual_scale}")
+        if self.residual_scope not in RESIDUAL_SCOPES:
+            raise DragMeshError(f"unknown residual_scope {self.residual_scope!r} (choose from "
+                                f"{', '.join(RESIDUAL_SCOPES)})")
         if not 0 <= self.object_curriculum <= 1:
             raise DragMeshError(f"object_curriculum must be in [0, 1], got {self.object_curriculum}")
         if not 0 < self.rho <= 1:

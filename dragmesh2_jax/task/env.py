@@ -57,7 +57,7 @@ from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import PEAK_COSTS, ResetNoise, TaskConfig
-from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit
+from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit, residual_gain
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import (
@@ -379,12 +379,12 @@ class PullTask:
 
     def step(self, state: State, action: jnp.ndarray) -> State:
         """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits) (with
-        ``expert_prior``, residual_scale x a the policy's residual over the expert drag's action)."""
+        ``expert_prior``, residual_gain x a the policy's residual over the expert drag's action)."""
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state.physics)
         if self.config.expert_prior:  # the residual over the expert drag's action of this step
             prior = (self.params.drag[state.info["step"]] - k0.hand_q) / self.config.alpha  # one row per step
-            a = jnp.clip(self.config.residual_scale * a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
+            a = jnp.clip(residual_gain(self.config) * a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)
 

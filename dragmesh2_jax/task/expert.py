@@ -7,6 +7,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.base import Start
@@ -35,6 +36,14 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
     if scene.config.effector != "hand":
         raise DragMeshError("expert_prior needs the hand (the expert drag moves the hand, not a gripper)")
     return held_targets(traj, config)
+
+
+def residual_gain(config: TaskConfig) -> np.ndarray:
+    """The factor on each of the hand's action channels before the policy's residual adds to the expert's:
+    ``config.residual_scale`` on the channels of ``config.residual_scope``, 1 on the rest."""
+    gain = np.ones(NUM_DOFS, np.float32)
+    gain[:3 if config.residual_scope == "translation" else NUM_DOFS] = config.residual_scale
+    return gain
 
 
 def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Start, bank: list[Start],

@@ -160,6 +160,7 @@ def test_non_finite_world_is_reset_and_counted_without_poisoning_others(drawer_t
     ({"alpha": 0.0}, "alpha"), ({"backend": "cuda"}, "unknown backend"), ({"impl": "torch"}, "impl"),
     ({"damping_range": (2.0, 1.0)}, "damping_range"), ({"residual_scale": 0.5}, "only with expert_prior"),
     ({"residual_scale": 0.0, "expert_prior": True}, "residual_scale"),
+    ({"residual_scope": "fingers", "expert_prior": True}, "residual_scope"),
 ])
 def test_bad_config_is_rejected_before_compiling(change, fragment):
     with pytest.raises(DragMeshError, match=fragment):
@@ -213,7 +214,8 @@ def test_a_task_on_the_c_engine_never_imports_mjx():
 def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_task):
     """expert_prior: the applied action is the policy's plus the tracking_delta baseline's, so zeros follow the drag
     exactly as that baseline does (the same part and hand motion, the same applied action in the history: what the
-    evaluation's smoothness reads), and a policy's action moves the hand off it, by residual_scale of it."""
+    evaluation's smoothness reads), and a policy's action moves the hand off it, by residual_scale of it on the channels
+    of residual_scope (the whole hand, or the wrist's translation alone)."""
     prior = _task(drawer_task, expert_prior=True)
     delta = tracking_delta_controller(drawer_task)
     policy = delta.make_policy(True)
@@ -229,9 +231,12 @@ def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_tas
         return jax.lax.scan(body, s, None, length=steps)[1]
 
     fine = _task(drawer_task, expert_prior=True, residual_scale=0.5)
-    (q_delta, h_delta, a_delta), (q_zero, h_zero, a_zero), (_, h_push, _), (_, h_fine, _) = jax.device_get(jax.jit(
-        lambda: (run(drawer_task, lambda s: policy(delta.params, s.obs, None)), run(prior, lambda s: jnp.zeros(51)),
-                 run(prior, lambda s: jnp.full(51, 0.5)), run(fine, lambda s: jnp.full(51, 2.0))))())
+    pull = _task(drawer_task, expert_prior=True, residual_scale=0.5, residual_scope="translation")
+    (q_delta, h_delta, a_delta), (q_zero, h_zero, a_zero), (_, h_push, _), (_, h_fine, _), (_, h_pull, _) = \
+        jax.device_get(jax.jit(lambda: (
+            run(drawer_task, lambda s: policy(delta.params, s.obs, None)), run(prior, lambda s: jnp.zeros(51)),
+            run(prior, lambda s: jnp.full(51, 0.5)), run(fine, lambda s: jnp.full(51, 2.0)),
+            run(pull, lambda s: jnp.full(51, 0.5).at[:3].set(2.0))))())
     np.testing.assert_allclose(q_zero, q_delta, atol=1e-5)
     np.testing.assert_allclose(h_zero, h_delta, atol=1e-5)
     np.testing.assert_allclose(a_zero, a_delta, atol=1e-4)
@@ -239,6 +244,7 @@ def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_tas
     assert q_zero[-1] > q_zero[0] + 0.1 * float(prior.params.q_goal - prior.params.q_start)  # the drag opens it
     assert np.abs(h_push - h_zero).max() > 0.01
     np.testing.assert_allclose(h_fine, h_push, atol=1e-5)  # at residual_scale 0.5, 2 (clipped to 1) moves as 0.5
+    np.testing.assert_allclose(h_pull, h_push, atol=1e-5)  # only the translation's 2 narrowed to 0.5
     assert drawer_task.params.drag.shape == (0,) and prior.params.drag.shape == (prior.config.episode_length, 51)
     with pytest.raises(DragMeshError, match="expert_prior needs the hand"):
         parallel_jaw(prior)
