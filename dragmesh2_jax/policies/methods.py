@@ -252,7 +252,7 @@ METHODS = {m.name: m for m in (
            {**HOLD, "task.reward.constraints": (Constraint(),)}),
 )}
 #: ``--method recommended``: the project's best recipe (RESULTS.md §3b says why), wherever a method is taken.
-RECOMMENDED = "hold_blind_residual_relative"
+RECOMMENDED = "hold_blind_residual_pull"
 
 
 def resolve(name: str) -> str:
