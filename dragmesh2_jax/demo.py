@@ -22,7 +22,7 @@ from dragmesh2_jax.progress import LogLines
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video, render_pose
 from dragmesh2_jax.runs.commands import evaluate_loaded, load_run
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import start_or_resume
+from dragmesh2_jax.runs.session import start_or_resume, training_success
 from dragmesh2_jax.runs.spec import method_defaults, method_spec
 
 CPU_EPOCHS = 60  # a small preset on a CPU; on an accelerator the method's own budget
@@ -74,8 +74,7 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
         f"- reference trajectory: {len(traj.frames)} frames, quality gate {'passed' if q.get('passed') else 'n/a'}; "
         f"q_start {traj.q_start:.4f}, q_done {traj.q_done:.4f}, q_goal {traj.q_goal:.4f}",
         f"- training: {epochs} epochs x {program.config.num_envs} envs x {program.config.rollout_len} steps on the "
-        f"{program.task.engine} backend; final training success {rows[-1]['success']:.2f}, "
-        f"{rows[-1]['seconds']:.0f} s",
+        f"{program.task.engine} backend; {training_success(rows)}, {rows[-1]['seconds']:.0f} s",
         f"- wall time (all stages): {time.time() - t0:.0f} s on {jax.default_backend()}", "",
         f"## Evaluation of `{ck.name}` ({protocol.episodes} episodes per cell, each from a perturbed expert grasp; 95% "
         "Wilson intervals)", "", markdown_table(result), "",

@@ -42,6 +42,7 @@ from dragmesh2_jax.runs.commands import (
     view_run,
 )
 from dragmesh2_jax.runs.generalist import GENERALIST, generalist_run, open_object
+from dragmesh2_jax.runs.session import training_success
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.trajectory.dataset import build_dataset
 
@@ -261,9 +262,9 @@ def cmd_train(args) -> int:
 def _print_trained(out: str, program, logs) -> None:
     for seed, rows in logs:
         last = rows[-1] if rows else {}
-        print(f"{out}: {program.name} seed {seed} on {program.task.object_id} "
-              f"({program.task.engine}), {last.get('epoch', 0)} epochs, training success "
-              f"{last.get('success', 0):.2f}, reward {last.get('reward', 0):.2f}, {last.get('seconds', 0):.0f} s")
+        print(f"{out}: {program.name} seed {seed} on {program.task.object_id} ({program.task.engine}), "
+              f"{last.get('epoch', 0)} epochs, {training_success(rows)}, reward {last.get('reward', 0):.2f}, "
+              f"{last.get('seconds', 0):.0f} s")
 
 
 def cmd_open(args) -> int:
@@ -284,8 +285,8 @@ def cmd_finetune(args) -> int:
                                 schedule,
                                 progress=not args.quiet, object_dir=args.object, trajectory=args.trajectory)
     last = rows[-1] if rows else {}
-    print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, training success "
-          f"{last.get('success', 0):.2f}, clip099 {last.get('clip099', 0):.2f}, {last.get('seconds', 0):.0f} s")
+    print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, {training_success(rows)}, "
+          f"clip099 {last.get('clip099', 0):.2f}, {last.get('seconds', 0):.0f} s")
     return 0
 
 

@@ -49,6 +49,14 @@ def robust_score(row: dict) -> tuple:
     return row["mean_success"], row["worst_success"], -row["clip099_active"]
 
 
+def training_success(rows: list[dict]) -> str:
+    """What a command reports of a training's success: the last epoch's in which episodes ended (an epoch where none
+    ended reads 0; worlds reset together finish together, so many epochs end none)."""
+    ended = next((r for r in reversed(rows) if r.get("episodes", 0) > 0), None)
+    return (f"training success {ended['success']:.2f} (epoch {ended['epoch']}'s episodes)" if ended else
+            "no training episode ended")
+
+
 def selection_check(program: TrainProgram, p: EvalProtocol = SELECTION, heldout=None):
     """``ts -> row``: det success per damping of the selection protocol ``p`` (its own starts) on the training env,
     or on ``heldout`` (a run's held-aside objects: each world draws one), and the physical figures of its worst

@@ -18,7 +18,7 @@ from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.commands import finetune_run, load_run
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import robust_score, start_or_resume
+from dragmesh2_jax.runs.session import robust_score, start_or_resume, training_success
 from dragmesh2_jax.runs.spec import finetune_spec
 from dragmesh2_jax.task.config import ReconfigConfig
 from dragmesh2_jax.task.rewards import BASE_TERMS, TERM_PREFIX
@@ -106,6 +106,15 @@ def test_every_finetune_preset_is_the_parents_run_with_the_recipes_task(trained_
                                    damping_range=parent.task.damping_range) == parent.task
     assert finetune_spec(parent, "damp_2_4", "ck", 9).task.damping_range == (2.0, 4.0)
     assert finetune_spec(parent, "continued", "ck", 9, {"robust_every": 0}).schedule.robust_every == 0
+
+
+def test_training_success_is_read_where_episodes_ended():
+    """Worlds reset together finish together, so an epoch may end no episode (its success reads 0): what a command
+    reports as the training success is the last epoch's in which episodes ended, or that none did."""
+    rows = [{"epoch": 1, "episodes": 4, "success": 0.5}, {"epoch": 2, "episodes": 6, "success": 1.0},
+            {"epoch": 3, "episodes": 0, "success": 0.0}]
+    assert training_success(rows) == "training success 1.00 (epoch 2's episodes)"
+    assert training_success(rows[2:]) == training_success([]) == "no training episode ended"
 
 
 def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
