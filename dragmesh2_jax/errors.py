@@ -17,8 +17,9 @@ class NotWritable(DragMeshError):
 
 
 class NotSaved(DragMeshError):
-    """A result was computed but could not be saved: ``result`` holds it, so the command can print it whole."""
+    """A result (``what``) was computed but could not be saved: ``result`` holds it, so the command can print it
+    whole or save it elsewhere, and ``reason`` says why (one line naming the folder or file)."""
 
-    def __init__(self, message: str, result: dict):
-        super().__init__(message)
-        self.result = result
+    def __init__(self, what: str, reason: str, result: dict):
+        super().__init__(f"{what} was not saved: {reason}")
+        self.reason, self.result = " ".join(reason.split()), result

@@ -273,7 +273,11 @@ def cmd_open(args) -> int:
                     args.renderer, args.every)
     print(f"{Path(args.object).name} at x{r['damping']:g}: opened {r['successes']}/{r['episodes']}, "
           f"{r['steps_mean']:.0f} steps, wrist load p95 {r['wrist_load_peak_n']:.0f} N")
-    _err(f"report: {Path(out) / 'report.md'}  video: {r['video']}  still: {r['still']}")
+    where = f"  evaluation: {r['evaluation']}" if r["evaluation"] else ""
+    _err(f"report: {Path(out) / 'report.md'}  video: {r['video']}  still: {r['still']}{where}")
+    if r["evaluation_not_in_run"]:
+        _err(f"note: the run folder did not get the evaluation ({r['evaluation_not_in_run']}); it is in "
+             f"{r['evaluation']}")
     return 0
 
 

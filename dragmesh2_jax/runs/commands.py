@@ -14,7 +14,7 @@ from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.baselines import tracking
 from dragmesh2_jax.baselines.parallel_jaw import PARALLEL_JAW, parallel_jaw
-from dragmesh2_jax.errors import DragMeshError, NotSaved, NotWritable
+from dragmesh2_jax.errors import DragMeshError, FolderBusy, NotSaved, NotWritable
 from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES, envelope, evaluate, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import os_error_line
@@ -271,8 +271,9 @@ def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend
 def evaluate_loaded(program: TrainProgram, ts: TrainState, run: RunDir, ck: Path, protocol: EvalProtocol = PAPER,
                     on: str | None = None) -> tuple[dict, Path | None]:
     """:func:`evaluate_checkpoint` of a run already loaded (``load_run``); ``on``: the object of a zero-shot
-    evaluation. A result that cannot be written is raised whole (:class:`NotSaved`), never lost; a packaged run's
-    is returned unwritten (None: the package is not a place to write)."""
+    evaluation. A result that cannot be written (the storage, or another writer of the run) is raised whole
+    (:class:`NotSaved`), never lost; a packaged run's is returned unwritten (None: the package is not a place to
+    write)."""
     result = evaluate(protocol.task(program.task), program.controller(ts), protocol)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs(), zero_shot=on is not None)
     if run.packaged:
@@ -280,9 +281,9 @@ def evaluate_loaded(program: TrainProgram, ts: TrainState, run: RunDir, ck: Path
     try:
         return result, run.write_evaluation(ck, protocol, result, markdown_table(result), on=on)
     except OSError as e:
-        raise NotSaved(f"the evaluation was not saved: {os_error_line(e)}", result) from None
-    except NotWritable as e:
-        raise NotSaved(f"the evaluation was not saved: {e}", result) from None
+        raise NotSaved("the evaluation", os_error_line(e), result) from None
+    except (NotWritable, FolderBusy) as e:  # busy only where the caller does not hold the lock (open)
+        raise NotSaved("the evaluation", str(e), result) from None
 
 
 def baseline_controllers() -> dict:

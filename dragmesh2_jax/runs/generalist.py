@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from dragmesh2_jax.assets import procedural
-from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.errors import DragMeshError, NotSaved
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.ppo.checkpoint import save_actor
@@ -78,13 +78,20 @@ def open_object(object_dir: str, damping: float, out: str | Path, checkpoint: st
     """``dragmesh2 open``: the packaged generalist (or ``checkpoint``) on ``object_dir`` at ``damping``, no training:
     the trajectory built, ``episodes`` deterministic episodes from perturbed starts, and in ``out`` the trajectory,
     ``report.md`` and ``report.json`` (success, steps, wrist load, the physical figures), ``video`` (MP4 or GIF) and
-    ``still.png`` (its last frame). Returns the report."""
+    ``still.png`` (its last frame). Returns the report; its ``evaluation`` is where the whole evaluation went: the
+    run's evaluations, or ``out/evaluation.json`` where the run folder could not take it (another writer holds it,
+    read-only storage; ``evaluation_not_in_run`` says why), None for a packaged run (never written)."""
     if not Path(object_dir).is_dir():
         raise DragMeshError(f"{object_dir}: no such object folder")
     out = Path(out)
     program, ts, run, ck = load_run(checkpoint, backend, object_dir=object_dir)
     protocol = EvalProtocol(dampings=(damping,), modes=("det",), episodes=episodes)
-    result, _ = evaluate_loaded(program, ts, run, ck, protocol, Path(object_dir).name)
+    try:
+        result, evaluation = evaluate_loaded(program, ts, run, ck, protocol, Path(object_dir).name)
+        not_in_run = None
+    except NotSaved as e:  # the run folder's fault, not open's: the evaluation goes to open's folder instead
+        result, not_in_run = e.result, e.reason
+        evaluation = atomic_write_json(out / "evaluation.json", result)
     (cell,) = result["cells"]
     task = EvalProtocol(starts=None).task(program.task)
     video, used = render_policy_video(task, program.controller(ts), [damping], out / "video.mp4", every=every,
@@ -95,7 +102,8 @@ def open_object(object_dir: str, damping: float, out: str | Path, checkpoint: st
               "successes": cell["successes"], "steps_mean": cell["steps_mean"],
               "wrist_load_peak_n": cell["wrist_load_peak_n"], "palm_speed_peak_m_s": cell["palm_speed_peak_m_s"],
               "penetration_max_mm": cell["penetration_max_mm"], "clip099_active": cell["clip099_active"],
-              "video": str(video), "renderer": used, "still": str(out / "still.png")}
+              "video": str(video), "renderer": used, "still": str(out / "still.png"),
+              "evaluation": str(evaluation) if evaluation else None, "evaluation_not_in_run": not_in_run}
     atomic_write_json(out / "report.json", report)
     atomic_write_text(out / "report.md", _markdown(report, Path(object_dir).name))
     return report

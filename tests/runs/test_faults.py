@@ -7,6 +7,7 @@ import errno
 import json
 import shutil
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -155,6 +156,41 @@ def test_an_evaluation_that_cannot_be_saved_is_printed_whole(run, capsys):
     (line,) = err.strip().splitlines()
     assert line.startswith("error: the evaluation was not saved") and "cannot be written" in line
     assert not (run / "evaluations").exists()
+
+
+def test_open_keeps_its_result_when_the_run_folder_cannot_take_the_evaluation(run, tmp_path, capsys):
+    """``open --checkpoint RUN`` writes its report, video, still and trajectory whatever the run folder does: a run
+    another process writes, or one on read-only storage, does not get the evaluation; open's folder does, and one
+    stderr line says so. A run folder that can take it gets it, and open says where."""
+    def open_(out) -> int:
+        return dragmesh2(["open", "--checkpoint", str(run), "--object", str(default_object()), "--out", str(out),
+                          "--episodes", "1", "--every", "100", "--renderer", "matplotlib", "--backend", "mujoco"])
+
+    def kept(out, fragment: str) -> None:
+        report = json.loads((out / "report.json").read_text())
+        assert {"report.md", "still.png", "trajectory.json"} <= {p.name for p in out.iterdir()}
+        assert Path(report["video"]).is_file() and report["episodes"] == 1
+        assert report["evaluation"] == str(out / "evaluation.json")
+        assert json.loads((out / "evaluation.json").read_text())["cells"][0]["episodes"] == 1
+        (note,) = [x for x in capsys.readouterr().err.splitlines() if x.startswith("note:")]
+        assert note.startswith(f"note: the run folder did not get the evaluation ({run}: {fragment}")
+        assert note.endswith(f"; it is in {out / 'evaluation.json'}")
+        assert not (run / "evaluations").exists()
+
+    holder = hold_lock(run)
+    try:
+        assert open_(tmp_path / "busy") == 0
+    finally:
+        release(holder)
+    kept(tmp_path / "busy", f"in use by another writer (process {holder.pid}")
+    with read_only(run):
+        assert open_(tmp_path / "read-only") == 0
+    kept(tmp_path / "read-only", "cannot be written")
+    assert open_(tmp_path / "free") == 0
+    (saved,) = (run / "evaluations").glob("*.json")
+    assert json.loads((tmp_path / "free" / "report.json").read_text())["evaluation"] == str(saved)
+    assert f"evaluation: {saved}" in capsys.readouterr().err
+    assert not (tmp_path / "free" / "evaluation.json").exists()
 
 
 def test_seed_folders_that_disagree_do_not_resume_as_one_program(trained, tmp_path, capsys):
