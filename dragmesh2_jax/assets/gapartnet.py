@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from dragmesh2_jax.assets.target import Part, Target, select_target
-from dragmesh2_jax.assets.urdf import Joint, Link, find_urdf, load_link_vertices, parse_urdf
+from dragmesh2_jax.assets.urdf import Joint, Link, find_urdf, inside_folder, load_link_vertices, parse_urdf
 from dragmesh2_jax.errors import DragMeshError
 
 
@@ -123,7 +123,7 @@ def _box_on_link(bbox: np.ndarray, link: Link, where: str) -> None:
 def read_parts(folder: Path, links: dict[str, Link]) -> list[Part]:
     """GAPartNet parts from ``link_annotation_gapartnet.json``; without it, from ``semantics*.txt`` and the
     links' mesh bounding boxes (then the corner order carries no meaning; the front face is re-derived)."""
-    path = folder / "link_annotation_gapartnet.json"
+    path = inside_folder(folder, "link_annotation_gapartnet.json")
     parts: list[Part] = []
     if path.is_file():
         data = _read_json(path)
@@ -145,8 +145,8 @@ def read_parts(folder: Path, links: dict[str, Link]) -> list[Part]:
             _box_on_link(bbox, links[e["link_name"]], f"{path}: entry {i} ({e['link_name']})")
             parts.append(Part(e["link_name"], str(e.get("category", "")), bbox))
         return parts
-    sem = folder / "semantics_gapartnet.txt"
-    sem = sem if sem.is_file() else folder / "semantics.txt"
+    sem = inside_folder(folder, "semantics_gapartnet.txt")
+    sem = sem if sem.is_file() else inside_folder(folder, "semantics.txt")
     if not sem.is_file():
         raise DragMeshError(f"{folder}: no link_annotation_gapartnet.json or semantics file to find parts in")
     for line in sem.read_text().splitlines():
@@ -179,7 +179,7 @@ def load_gapartnet(folder: str | Path) -> GAPartNetObject:
     links, joints, root = parse_urdf(urdf)
     if not any(j.movable for j in joints):
         raise DragMeshError(f"{urdf}: object has no movable (revolute or prismatic) joint")
-    meta_path = folder / "meta.json"
+    meta_path = inside_folder(folder, "meta.json")
     meta = _read_json(meta_path) if meta_path.is_file() else {}
     if not isinstance(meta, dict):
         raise DragMeshError(f"{meta_path}: expected a JSON object")

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from defusedxml import DefusedXmlException
 from defusedxml import ElementTree as SafeET
 
 from dragmesh2_jax.errors import DragMeshError
@@ -21,6 +22,10 @@ from dragmesh2_jax.errors import DragMeshError
 URDF_CANDIDATES = ("mobility_annotation_gapartnet.urdf", "mobility.urdf")
 MOVABLE = ("revolute", "prismatic", "continuous")
 KNOWN_JOINT_TYPES = (*MOVABLE, "fixed")
+#: The largest mesh file read. The largest mesh of the GAPartNet test objects has 40 KB (45780's original-48.obj);
+#: 64 MiB, over 1500 times that, leaves room for far finer meshes, while a larger one would be loaded whole into
+#: memory and then hulled or decomposed: it is refused from its size, before anything reads it.
+MAX_MESH_BYTES = 64 * 2**20
 
 
 @dataclass(frozen=True)
@@ -110,10 +115,25 @@ def axis_angle_matrix(axis, angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
 
 
+def inside_folder(folder: Path, name: str, where: str | None = None) -> Path:
+    """``folder / name``, refused where it lies outside ``folder`` once symlinks are followed: nothing an object
+    folder holds (a ``../`` or absolute path in its files, a symlink pointing out) opens a file elsewhere.
+    ``where`` names the reference in the error (default: the path itself)."""
+    path = folder / name
+    try:
+        real = path.resolve()
+    except (OSError, RuntimeError) as e:  # RuntimeError: a symlink loop
+        raise DragMeshError(f"{where or path}: cannot resolve ({e})") from None
+    if not real.is_relative_to(folder.resolve()):
+        raise DragMeshError(f"{where or path} resolves to {real}, outside the object folder {folder}")
+    return path
+
+
 def find_urdf(folder: Path) -> Path:
     for name in URDF_CANDIDATES:
-        if (folder / name).is_file():
-            return folder / name
+        path = inside_folder(folder, name)
+        if path.is_file():
+            return path
     raise DragMeshError(f"{folder}: no URDF found (expected {' or '.join(URDF_CANDIDATES)})")
 
 
@@ -135,13 +155,26 @@ def _limit(lim, key: str, jtype: str, where: str) -> float:
     return value
 
 
+def _mesh_path(folder: Path, fn: str, where: str) -> Path:
+    """The mesh file ``fn`` a link names: an existing file inside ``folder`` of at most ``MAX_MESH_BYTES``."""
+    path = inside_folder(folder, fn, f"{where}: mesh {fn!r}")
+    if not fn or not path.is_file():
+        raise DragMeshError(f"{where} references missing mesh {fn!r}")
+    size = path.stat().st_size
+    if size > MAX_MESH_BYTES:
+        raise DragMeshError(f"{where}: mesh {fn!r} has {size} bytes, over the {MAX_MESH_BYTES} a mesh may have")
+    return path
+
+
 def parse_urdf(urdf: Path) -> tuple[dict[str, Link], tuple[Joint, ...], str]:
     """Links (meshes and closed-configuration poses), joints (object frame), and the root link name."""
     try:
         root = SafeET.parse(str(urdf)).getroot()
     except SafeET.ParseError as e:
         raise DragMeshError(f"{urdf}: malformed XML ({e})") from None
-    except Exception as e:  # defusedxml raises its own types for entity attacks
+    except DefusedXmlException as e:  # an entity could expand without bound or pull in a file from elsewhere
+        raise DragMeshError(f"{urdf}: refused XML entities, which are never expanded ({e})") from None
+    except Exception as e:  # whatever else stops the read (permissions, I/O): one line, never a traceback
         raise DragMeshError(f"{urdf}: unsafe or unreadable XML ({type(e).__name__})") from None
     if root.tag != "robot":
         raise DragMeshError(f"{urdf}: not a URDF (root element <{root.tag}>, expected <robot>)")
@@ -158,10 +191,7 @@ def parse_urdf(urdf: Path) -> tuple[dict[str, Link], tuple[Joint, ...], str]:
                 mesh = el.find("geometry/mesh")
                 if mesh is None:
                     continue
-                fn = mesh.get("filename", "")
-                path = folder / fn
-                if not fn or not path.is_file():
-                    raise DragMeshError(f"{urdf}: link {name!r} references missing mesh {fn!r}")
+                path = _mesh_path(folder, mesh.get("filename", ""), f"{urdf}: link {name!r}")
                 meshes.append(MeshRef(path, _origin(el.find("origin"), f"{urdf}: link {name}"), kind == "collision"))
         raw_links[name] = meshes
 

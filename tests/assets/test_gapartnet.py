@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.errors import DragMeshError
 
 # (target link, part category, joint type, handle link) per the paper's Appendix B selection rule
@@ -140,3 +141,20 @@ def test_missing_annotation_falls_back_to_semantics(obj_copy):
     obj = load_gapartnet(obj_copy)
     assert obj.target.joint.is_revolute and obj.target.handle.source == "handle"
     assert json.dumps(obj.summary())  # JSON-ready
+
+
+@pytest.mark.parametrize("name", ["mobility_annotation_gapartnet.urdf", "link_annotation_gapartnet.json", "meta.json",
+                                  "semantics_gapartnet.txt"])
+def test_an_object_file_symlinked_out_of_its_folder_is_refused(tmp_path, name):
+    """Each file the importer opens by name, moved beside the folder (where it would load as it is) and left as a
+    symlink in it, is one error line naming the file and the folder."""
+    folder = tmp_path / "object"
+    shutil.copytree(packaged_object("door_cabinet_0000"), folder)
+    if name == "semantics_gapartnet.txt":  # read only without the link annotation
+        (folder / "link_annotation_gapartnet.json").unlink()
+    outside = (folder / name).rename(tmp_path / name)
+    (folder / name).symlink_to(outside)
+    with pytest.raises(DragMeshError) as e:
+        load_gapartnet(folder)
+    msg = str(e.value)
+    assert "\n" not in msg and f"{folder / name} resolves to {outside}, outside the object folder {folder}" in msg
