@@ -254,6 +254,34 @@ def test_tables_only_reads_the_plan_the_reproduction_recorded(tmp_path, monkeypa
     assert json.loads((tmp_path / "main.json").read_text())["results"] == written
 
 
+def test_tables_only_over_a_folder_without_the_tables_runs_is_one_error_line_and_creates_nothing(tmp_path, capsys):
+    """A mistyped ``--out`` (no such folder, or one with no runs of the table) is refused, not written an empty
+    table: one ``error:`` line, exit 2, and the folder as it was."""
+    dragmesh2 = installed_command()
+    typo = tmp_path / "rpe"
+    assert dragmesh2(["reproduce", "main", "--tables-only", "--out", str(typo)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"error: {typo}: no such folder") and not typo.exists()
+    (tmp_path / "other").mkdir()
+    assert dragmesh2(["reproduce", "main", "--tables-only", "--out", str(tmp_path / "other")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"error: {tmp_path / 'other'}: holds no runs or evaluations of main")
+    assert not list((tmp_path / "other").iterdir())
+
+
+def test_tables_only_all_writes_the_tables_the_folder_holds(tmp_path, monkeypatch):
+    """``all`` with ``--tables-only`` is every table the folder holds a reproduction of, not an empty one for each
+    table never run there."""
+    fake = FakeSteps()
+    monkeypatch.setattr(executor, "_train", fake.train)
+    monkeypatch.setattr(executor, "_evaluate", fake.evaluate)
+    reproduce(["main"], TINY, tmp_path, progress=False)
+    written = {p.stem for p in reproduce(["all"], TINY, tmp_path, progress=False, run=False)}
+    assert "main" in written and "ablation" in written  # PICA's runs are the ablation's too
+    for table in ("generalist", "scaling"):  # none of their runs are there
+        assert table not in written and not (tmp_path / f"{table}.md").exists()
+
+
 def test_the_papers_cells_cover_its_seven_objects_and_average_to_its_avg_column():
     """Every row of paper Tables 2 and 3 has all seven objects; the Avg column is their mean (to the paper's
     rounding), which catches a mistyped cell."""

@@ -286,7 +286,8 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--tables-only", action="store_true",
                      help="run nothing: write the tables from the evaluations already done, each by the plan "
                           "recorded in --out (the other flags are not needed; partial tables say so, and a table "
-                          "is never replaced by one with fewer cells)")
+                          "is never replaced by one with fewer cells); --out must hold each table's runs (all: the "
+                          "tables it holds)")
     prp.set_defaults(func=cmd_reproduce)
 
     pd = sub.add_parser("demo", help="the main job: trajectory, training the recipe, evaluation, report")

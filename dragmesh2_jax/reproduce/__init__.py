@@ -44,8 +44,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import folder_lock
-from dragmesh2_jax.reproduce.executor import evaluations, execute
+from dragmesh2_jax.reproduce.executor import evaluations, execute, started
 from dragmesh2_jax.reproduce.paper import (
     CHECKPOINTS,
     GENERALIST_HOLDOUT,
@@ -67,9 +68,13 @@ def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: 
     """Plan, run (resuming) and write each table; returns the markdown files. The folder's lock is held throughout
     (one reproduction writes a folder at a time). Each table's plan is recorded in ``reproduce_run.json`` before it
     runs; ``run=False`` runs nothing and writes the tables from the evaluations already done, each by its recorded
-    plan (``c`` for a table never run here; a partial table says what it lacks)."""
+    plan (``c`` for a table never run here; a partial table says what it lacks) and only over a folder that holds
+    each table's runs (``all``: the tables it holds)."""
     out = Path(out)
-    tables = list(TABLES) if tables == ["all"] else tables
+    every = tables == ["all"]
+    tables = list(TABLES) if every else tables
+    if not run:  # before the lock, which would create the folder a mistyped --out names
+        tables = _reproduced(tables, c, out, every)
     with folder_lock(out):
         recorded = read_plans(out)
         configs = {t: (c if run else recorded.get(t, c)) for t in tables}
@@ -84,3 +89,19 @@ def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: 
         if run:
             write_plans(out, {**recorded, **configs}, round(time.time() - t0, 1))
     return paths
+
+
+def _reproduced(tables: list[str], c: ReproduceConfig, out: Path, every: bool) -> list[str]:
+    """The tables whose reproduction ``out`` holds (its plan recorded, the table written, or any of its runs or
+    evaluations): each of ``tables``, or with ``every`` those of them it holds; one error line where it holds none
+    (a table written from nothing would be empty, and would hide the mistyped folder)."""
+    if not out.is_dir():
+        raise DragMeshError(f"{out}: no such folder (--tables-only writes the tables of a reproduction run there; "
+                            "give its --out)")
+    recorded = read_plans(out)
+    held = [t for t in tables if t in recorded or (out / f"{t}.json").is_file() or started(t, recorded.get(t, c), out)]
+    missing = [] if every and held else [t for t in tables if t not in held]
+    if missing:
+        raise DragMeshError(f"{out}: holds no runs or evaluations of {', '.join(missing)} (--tables-only writes the "
+                            "tables of a reproduction run there: run it first, or give its --out)")
+    return held

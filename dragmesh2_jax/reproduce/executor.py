@@ -161,6 +161,11 @@ def _done(step: Run | Eval, c: ReproduceConfig, out: Path) -> bool:
     return step.folder(out).trained_epochs() >= step.epochs
 
 
+def started(table: str, c: ReproduceConfig, out: Path) -> bool:
+    """Whether ``out`` holds any step of ``table``'s plan, done or not: a run's record or an evaluation's file."""
+    return any(s.path(out, c).is_file() if isinstance(s, Eval) else s.folder(out).exists() for s in plan(table, c))
+
+
 def evaluations(table: str, c: ReproduceConfig, out: Path) -> list[dict]:
     """The evaluations of ``table``'s plan done so far."""
     return [r for s in plan(table, c) if isinstance(s, Eval) and (r := _current(s, c, out)) is not None]
