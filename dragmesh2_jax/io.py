@@ -4,12 +4,14 @@ faults as one line, and content hashing: nothing is ever left half-written."""
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import errno
 import fcntl
 import hashlib
 import io
 import json
 import os
+import shutil
 import sys
 import tempfile
 from collections.abc import Iterable, Iterator
@@ -50,6 +52,72 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
 
 def atomic_write_json(path: str | os.PathLike, obj: Any, indent: int | None = 2) -> Path:
     return atomic_write_text(path, json.dumps(obj, indent=indent) + "\n")
+
+
+def beside(path: Path) -> Path:
+    """Where a folder's replacement is written before it takes ``path``'s place."""
+    return path.with_name(f".{path.name}.tmp")
+
+
+def aside(path: Path) -> Path:
+    """Where a replaced folder waits while its replacement is renamed in, on systems that cannot swap two folders."""
+    return path.with_name(f".{path.name}.old")
+
+
+_RENAME_EXCHANGE, _AT_FDCWD = 2, -100  # <linux/fs.h>, <fcntl.h>
+#: What renameat2 answers where the kernel, the C library or the filesystem cannot swap two folders.
+_NO_EXCHANGE = {errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP}
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap the folders ``a`` and ``b`` in one step (Linux's ``renameat2(RENAME_EXCHANGE)``); False where the system
+    cannot."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    swap = getattr(libc, "renameat2", None)
+    if swap is None:
+        return False
+    if swap(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in _NO_EXCHANGE:
+        return False
+    raise OSError(code, os.strerror(code), str(b))
+
+
+def replace_folder(new: Path, path: Path) -> None:
+    """The finished folder ``new`` takes ``path``'s place. Where the system swaps two folders in one step, a reader
+    or a kill at any moment finds ``path`` whole, old or new; elsewhere the old folder is moved ``aside`` for the
+    moment between two renames, and a kill there leaves it for :func:`restore_aside`. What is left to delete after a
+    kill (the old copy at ``beside`` or ``aside``) is deleted by the next replacement or ``restore_aside``."""
+    if not path.exists():
+        new.rename(path)
+    elif _exchange(new, path):
+        shutil.rmtree(new)  # now the old copy
+    else:
+        old = aside(path)
+        shutil.rmtree(old, ignore_errors=True)  # a copy a kill left half deleted
+        path.rename(old)
+        new.rename(path)
+        shutil.rmtree(old)
+
+
+def restore_aside(folder: Path) -> list[str]:
+    """After a kill, under the writer's lock: each folder in ``folder`` that a replacement had moved ``aside`` and
+    not yet replaced is put back, and the leftovers of unfinished replacements are deleted. Returns what was done,
+    a line each."""
+    done = []
+    for old in sorted(folder.glob(".*.old")):
+        path = old.with_name(old.name[1:-len(".old")])
+        if path.exists():
+            shutil.rmtree(old)
+        else:
+            old.rename(path)
+            done.append(f"{path}: restored (a kill interrupted its replacement)")
+    for tmp in sorted(folder.glob(".*.tmp")):
+        if tmp.is_dir():
+            shutil.rmtree(tmp)
+            done.append(f"{tmp}: removed (a replacement a kill left unfinished)")
+    return done
 
 
 class Drawable(Protocol):

@@ -157,6 +157,34 @@ def read_only(folder: Path):
                 p.chmod(mode)
 
 
+@contextlib.contextmanager
+def small_filesystem(folder: Path, size: str = "1m"):
+    """``folder`` (created, empty) as a real filesystem of ``size`` bytes (a tmpfs) for the block: a full disk that is
+    the operating system's, not a patched write. Mounting needs root (CI's case: a failure there, a skip elsewhere)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    mount = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], capture_output=True)
+    if mount.returncode != 0:
+        why = f"a {size} filesystem could not be mounted: {mount.stderr.decode().strip()}"
+        pytest.fail(why) if in_ci() else pytest.skip(why)
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", "-l", str(folder)], check=True, capture_output=True)
+
+
+def grow(folder: Path, size: str) -> None:
+    """A ``small_filesystem`` given more room, what it holds kept."""
+    subprocess.run(["mount", "-o", f"remount,size={size}", str(folder)], check=True, capture_output=True)
+
+
+def fill(folder: Path, leave: int) -> Path:
+    """Fill ``folder``'s filesystem but ``leave`` bytes (about: its blocks round) with one file; returns it."""
+    stat = os.statvfs(folder)
+    filler = folder / "filler"
+    filler.write_bytes(b"\0" * max(0, stat.f_bavail * stat.f_frsize - leave))
+    return filler
+
+
 @pytest.fixture
 def display():
     """A virtual screen (Xvfb, which CI installs) for the viewer: its DISPLAY name."""
