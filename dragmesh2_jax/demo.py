@@ -30,9 +30,10 @@ CPU_EPOCHS = 60  # a small preset on a CPU; on an accelerator the method's own b
 
 def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | None = None, epochs: int | None = None,
              backend: str = "auto", seed: int = 0, renderer: str = "auto", video_every: int = VIDEO_EVERY,
-             method: str = "recommended", progress: bool = True, episodes: int = PAPER.episodes) -> Path:
+             method: str = "recommended", progress: bool = True, episodes: int = PAPER.episodes,
+             overwrite: bool = False) -> Path:
     """Run the demo into ``out`` (by default the project's recipe, read by its checkpoint rule; ``episodes`` per
-    evaluation cell); returns the report's path."""
+    evaluation cell; ``overwrite``: a run there, and what it made, removed first); returns the report's path."""
     gpu = jax.default_backend() != "cpu"
     protocol = dataclasses.replace(PAPER, episodes=episodes)
     epochs = epochs or (method_defaults(method).schedule.epochs if gpu else CPU_EPOCHS)
@@ -47,10 +48,13 @@ def run_demo(out: str | Path, object_dir: str | None = None, trajectory: str | N
     spec = method_spec(method, folder, backend=backend,
                        schedule={"epochs": epochs, "seed": seed, "save_every": max(epochs // 3, 1)})
     with run.writing():  # the whole demo: one writer of its folder at a time
-        if run.exists() and (differ := run.spec().differences(method, folder, schedule={"seed": seed})):
-            raise DragMeshError(f"{out}: holds a demo of another run ({'; '.join(differ)}); give another --out")
+        if not overwrite and run.exists() and (differ := run.spec().differences(method, folder,
+                                                                                schedule={"seed": seed})):
+            raise DragMeshError(f"{out}: holds a demo of another run ({'; '.join(differ)}); give another --out, or "
+                                "--overwrite")
         # a rerun resumes the run there (trained further when asked for more epochs) and redoes the rest
-        _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=None, progress=progress)
+        _, _, (rows,) = start_or_resume(spec, [run], trajectory=trajectory, resume=None, progress=progress,
+                                        overwrite=overwrite)
         stages(1, f"1/4 trained ({epochs} epochs)")
         program, ts, run, ck = load_run(out)  # the checkpoint its method reads
         traj = program.task.traj

@@ -240,7 +240,7 @@ def cmd_train(args) -> int:
     changes = tree_changes(parse_tree(args.rest, default, TRAIN_PROG), default)
     if args.generalist:
         program, logs = generalist_run(args.out, seeds, args.resume, args.backend, args.impl, changes,
-                                       progress=not args.quiet, wandb=args.wandb)
+                                       progress=not args.quiet, wandb=args.wandb, overwrite=args.overwrite)
         _print_trained(args.out, program, logs)
         return 0
     objects, trajectory = args.object, args.trajectory
@@ -254,7 +254,8 @@ def cmd_train(args) -> int:
     program, logs = train_run(
         args.out, objects, trajectory, args.method, args.backend, args.impl, seeds, args.resume, holdout=args.holdout,
         task_changes=changes["task"], scene_changes=changes["scene"], network_changes=changes["network"],
-        schedule_changes=changes["schedule"], progress=not args.quiet, wandb=args.wandb, **changes["ppo"])
+        schedule_changes=changes["schedule"], progress=not args.quiet, wandb=args.wandb, overwrite=args.overwrite,
+        **changes["ppo"])
     _print_trained(args.out, program, logs)
     return 0
 
@@ -286,8 +287,8 @@ def cmd_finetune(args) -> int:
     if args.seed is not None:
         schedule["seed"] = args.seed
     parent, rows = finetune_run(args.checkpoint, args.recipe, args.out, _engine(args.backend), args.impl, args.epochs,
-                                schedule,
-                                progress=not args.quiet, object_dir=args.object, trajectory=args.trajectory)
+                                schedule, progress=not args.quiet, object_dir=args.object,
+                                trajectory=args.trajectory, overwrite=args.overwrite, lr=args.lr)
     last = rows[-1] if rows else {}
     print(f"{args.out}: {args.recipe} fine-tune of {parent} to epoch {last.get('epoch', 0)}, {training_success(rows)}, "
           f"clip099 {last.get('clip099', 0):.2f}, {last.get('seconds', 0):.0f} s")
@@ -358,7 +359,8 @@ def cmd_reproduce(args) -> int:
 def cmd_demo(args) -> int:
     """The main job on the built-in default: trajectory -> the recipe's training -> evaluation x1/x2/x4 -> report."""
     report = run_demo(args.out, args.object, args.trajectory, args.epochs, args.backend, args.seed, args.renderer,
-                      args.video_every, args.method, progress=not args.quiet, episodes=args.episodes)
+                      args.video_every, args.method, progress=not args.quiet, episodes=args.episodes,
+                      overwrite=args.overwrite)
     print(report.read_text())
     _err(f"report: {report}")
     return 0

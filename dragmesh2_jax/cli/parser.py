@@ -38,6 +38,8 @@ from dragmesh2_jax.runs.commands import DEFAULT_METHOD
 from dragmesh2_jax.runs.generalist import OPEN_EPISODES
 from dragmesh2_jax.runs.spec import ROBUST_EVERY, SAVE_EVERY
 
+OVERWRITE_HELP = ("start again in a folder that holds a run's products: removes its run.json, trajectories, logs, "
+                  "tb/, checkpoints/, evaluations/ and exported actor (what else the folder holds stays)")
 
 def _csv(values) -> str:
     return ",".join(f"{v:g}" for v in values)
@@ -194,6 +196,7 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--seeds", help="several seeds as one program (e.g. 0,1,2), each in OUT/seed_N; sharded over "
                                      "the devices when they divide the count")
     ptr.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
+    ptr.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     ptr.add_argument("--quiet", action="store_true")
     ptr.add_argument("--wandb", metavar="PROJECT", help="also log the scalars to this Weights & Biases project (the "
                                                          "wandb extra; WANDB_MODE=offline keeps them local)")
@@ -206,6 +209,10 @@ def build_parser() -> argparse.ArgumentParser:
     pft.add_argument("--recipe", required=True,
                      help=" | ".join(f"{name} ({f.epochs} epochs)" for name, f in FINETUNES.items()))
     pft.add_argument("--out", required=True, help="run folder of the fine-tune")
+    pft.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
+    pft.add_argument("--ppo.lr", dest="lr", type=float,
+                     help="Adam's learning rate from the checkpoint on (default: the checkpoint's own; a run whose "
+                          "learning went non-finite goes on from its last good checkpoint at a lower one)")
     pft.add_argument("--epochs", type=POSITIVE, help="epochs to add (default: the preset's)")
     pft.add_argument("--seed", type=int, help="start the fine-tune's worlds and sampling from this seed (default: "
                                               "the run's seed, continuing the checkpoint's stream)")
@@ -294,6 +301,7 @@ def build_parser() -> argparse.ArgumentParser:
     pd.add_argument("--object", help="object folder (default: the packaged drawer cabinet)")
     pd.add_argument("--trajectory")
     pd.add_argument("--out", default="out/demo", help="the demo's run folder (a rerun resumes it)")
+    pd.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     pd.add_argument("--epochs", type=POSITIVE, help="default: 60 on a CPU, the method's budget on a GPU")
     pd.add_argument("--seed", type=int, default=0, help="training seed")
     pd.add_argument("--quiet", action="store_true")

@@ -372,6 +372,25 @@ def train(program: TrainProgram, data: TaskData, ts: TrainState, epochs: int, me
         ts, m = epoch_runs(program, data, ts, mesh)
         m = {k: np.asarray(v, np.float64) for k, v in jax.device_get(m).items()}
         program.task.check_overflow(int(m["overflow"].sum()), f"epoch {int(ts.epoch[0])}")
+        if not (np.all(np.isfinite(m["loss"])) and bool(_finite((ts.params, ts.opt_state)))):
+            raise NonFiniteLearning(int(ts.epoch[0]), m["loss"])
         if on_epoch is not None:
             on_epoch(ts, m)
     return ts
+
+
+class NonFiniteLearning(DragMeshError):
+    """The loss or the learner's parameters went non-finite in ``epoch`` (its state is dropped: nothing of it is
+    saved); the caller names the last good checkpoint."""
+
+    def __init__(self, epoch: int, loss: np.ndarray):
+        super().__init__(f"epoch {epoch}: learning went non-finite (loss {', '.join(f'{x:g}' for x in loss)}, or a "
+                         "parameter NaN or inf); training stopped")
+        self.epoch = epoch
+
+
+@jax.jit
+def _finite(tree) -> jax.Array:
+    """Whether every floating-point number in ``tree`` is finite (one scalar: the check costs one transfer)."""
+    leaves = [jnp.all(jnp.isfinite(x)) for x in jax.tree.leaves(tree) if jnp.issubdtype(x.dtype, jnp.inexact)]
+    return jnp.all(jnp.stack(leaves))

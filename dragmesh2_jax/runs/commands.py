@@ -28,7 +28,7 @@ from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import RESCHEDULABLE, start_or_resume
 from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, method_spec
 from dragmesh2_jax.scene import SceneConfig, build_scene
-from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.config import RESIZABLE, TaskConfig
 from dragmesh2_jax.task.env import contact_budget
 from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.generator import generate
@@ -113,13 +113,14 @@ def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | No
               backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
               task_changes: dict | None = None, scene_changes: dict | None = None,
               network_changes: dict | None = None, schedule_changes: dict | None = None, progress: bool = True,
-              wandb: str | None = None, holdout: int | None = None,
+              wandb: str | None = None, holdout: int | None = None, overwrite: bool = False,
               **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
-    record (``resume``: a longer ``schedule_changes["epochs"]`` extends it and other checkpoint or robustness
-    intervals revise it; a method, object or any other config value that differs from the record is refused);
-    ``object_dir`` a list: one policy over several objects, the last ``holdout`` held aside for checkpoint
-    selection. Returns (program, [(seed, log rows)])."""
+    record (``resume``: a longer ``schedule_changes["epochs"]`` extends it, other checkpoint or robustness
+    intervals and buffer sizes (``TaskConfig.RESIZABLE``) revise it; a method, object or any other config value that
+    differs from the record is refused); ``object_dir`` a list: one policy over several objects, the last
+    ``holdout`` held aside for checkpoint selection; ``overwrite``: what the folders hold of earlier runs is removed
+    first. Returns (program, [(seed, log rows)])."""
     if seeds is not None and not seeds:
         raise DragMeshError("--seeds: no seeds given")
     runs = run_dirs(out, seeds)
@@ -127,18 +128,22 @@ def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | No
     if resume:
         if trajectory is not None:
             raise DragMeshError(f"{out}: --resume continues the run on the trajectories it keeps; drop --trajectory")
-        _check_resume(runs, method, object_dir, ppo, task_changes, scene_changes, network_changes,
+        task_changes = task_changes or {}
+        _check_resume(runs, method, object_dir, ppo, {k: v for k, v in task_changes.items() if k not in RESIZABLE},
+                      scene_changes, network_changes,
                       {k: v for k, v in schedule_changes.items() if k not in RESCHEDULABLE}, holdout)
-        given = None  # the recorded runs as they are, or under the schedule the flags give
-        rescheduled = {f"schedule.{k}": v for k, v in schedule_changes.items() if k in RESCHEDULABLE}
-        if rescheduled and runs[0].exists():
-            given = apply_overrides(runs[0].spec(), rescheduled)
+        given = None  # the recorded runs as they are, or under the schedule and buffer sizes the flags give
+        changed = ({f"schedule.{k}": v for k, v in schedule_changes.items() if k in RESCHEDULABLE}
+                   | {f"task.{k}": v for k, v in task_changes.items() if k in RESIZABLE and v is not None})
+        if changed and runs[0].exists():
+            given = apply_overrides(runs[0].spec(), changed)
         program, _, logs = start_or_resume(given, runs, resume=True, backend=backend, impl=impl, progress=progress,
-                                           wandb=wandb)
+                                           wandb=wandb, overwrite=overwrite)
         return program, [(r.spec().schedule.seed, rows) for r, rows in zip(runs, logs, strict=True)]
     spec = method_spec(method or DEFAULT_METHOD, object_dir, ppo, task_changes, scene_changes, backend, impl,
                        network_changes, holdout or 0, schedule_changes)
-    program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, progress=progress, wandb=wandb)
+    program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, progress=progress, wandb=wandb,
+                                       overwrite=overwrite)
     return program, list(zip(seeds or [spec.schedule.seed], logs, strict=True))
 
 
@@ -221,15 +226,16 @@ def on_object(spec: RunSpec, object_dir: str) -> RunSpec:
 
 def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "jax",
                  epochs: int | None = None, schedule: dict | None = None, selection: EvalProtocol | None = None,
-                 progress: bool = True, object_dir: str | None = None,
-                 trajectory: str | None = None) -> tuple[Path, list[dict]]:
+                 progress: bool = True, object_dir: str | None = None, trajectory: str | None = None,
+                 overwrite: bool = False, lr: float | None = None) -> tuple[Path, list[dict]]:
     """A fine-tune preset continuing a trained run from ``checkpoint`` for the preset's epochs (or ``epochs``),
     counted on from the checkpoint's epoch, into ``out`` (on ``object_dir`` instead of the run's objects: a policy
     trained over several objects fine-tuned onto a new one), under the run's schedule with ``schedule``'s fields
     (``save_every``, ``robust_every``, ...) changed; ``selection``: the robustness checks' protocol (None: the
     schedule's). A ``seed`` in ``schedule`` starts the fine-tune's worlds and its sampling stream from that seed
     (several fine-tunes of one checkpoint, one per seed); without one it continues the checkpoint's stream under the
-    run's seed. Returns (parent checkpoint, log rows)."""
+    run's seed; ``overwrite``: what ``out`` holds of an earlier run is removed first; ``lr``: Adam's learning rate from
+    the checkpoint on (None: the checkpoint's). Returns (parent checkpoint, log rows)."""
     more = get_finetune(recipe).epochs if epochs is None else epochs
     if more < 1:
         raise DragMeshError(f"fine-tune epochs must be >= 1, got {more}")
@@ -241,13 +247,18 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
     trajectories = [trajectory] if object_dir else run.trajectories()
     if object_dir:
         spec = on_object(spec, object_dir)
+    if lr is not None:
+        spec = apply_overrides(spec, {"ppo.lr": lr})
     program = program_of(spec, trajectories)
     fresh = init_jit(program, program.data(), seed_keys([spec.schedule.seed])[0])
     start = load_checkpoint(fresh, ck, keep_env=True)
     if "seed" in (schedule or {}):
         start = start.replace(rng=fresh.rng)
+    if lr is not None:  # the adaptive schedule's rate lives in the state: it starts from the one given
+        start = start.replace(lr=fresh.lr)
     _, _, logs = start_or_resume(spec, [RunDir(out)], trajectory=list(program.task.trajectories),
-                                 resume=False, start=start, selection=selection, progress=progress)
+                                 resume=False, start=start, selection=selection, progress=progress,
+                                 overwrite=overwrite)
     return ck, logs[0]
 
 

@@ -36,18 +36,19 @@ def generalist_objects(out: str | Path, progress: bool = True) -> tuple[list[str
 
 
 def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str, impl: str, changes: dict,
-                   progress: bool = True, wandb: str | None = None) -> tuple[TrainProgram, list]:
+                   progress: bool = True, wandb: str | None = None,
+                   overwrite: bool = False) -> tuple[TrainProgram, list]:
     """``train --generalist``: the ``generalist`` method over its objects (``generalist_objects``), new or resumed;
     ``changes``: each group's fields the command's flags changed (``cli.flags.tree_changes``)."""
     with RunDir(out).writing():  # its objects are built into OUT: by the one writer, and never into another run
-        if not resume:
+        if not resume and not overwrite:
             for run in run_dirs(out, seeds):
                 run.require_new()
         objects, trajectories, holdout = generalist_objects(out, progress)
         return train_run(out, objects, None if resume else trajectories, GENERALIST, backend, impl, seeds, resume,
                          task_changes=changes["task"], scene_changes=changes["scene"],
                          network_changes=changes["network"], schedule_changes=changes["schedule"], progress=progress,
-                         wandb=wandb, holdout=holdout, **changes["ppo"])
+                         wandb=wandb, holdout=holdout, overwrite=overwrite, **changes["ppo"])
 
 
 def package_run(checkpoint: str, dest: str | Path, command: str) -> Path:

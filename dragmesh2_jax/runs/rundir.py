@@ -5,7 +5,7 @@
     log.jsonl, log.csv       one row per epoch: every metric the epoch returned
     robust.jsonl, robust.csv the robustness checks that select ``best_robust`` (paper App. B.3-B.4)
     tb/                      the same scalars as TensorBoard event files
-    checkpoints/NAME         Orbax checkpoints (``ppo/checkpoint.py``): ``epoch_NNNN``, ``best`` (training
+    checkpoints/NAME         checkpoints (``ppo/checkpoint.py``): ``epoch_NNNN``, ``best`` (training
                              reward), ``best_robust``, ``final``
     actor.msgpack            the policy exported alone (``ppo/checkpoint.save_actor``): what a packaged run ships
     evaluations/CK__PROTOCOL.json, .md   an evaluation of checkpoint CK under a protocol (``EvalProtocol.name``):
@@ -14,7 +14,9 @@
     .lock                    the operating system's advisory lock of the process writing the run (train,
                              finetune, evaluate, reproduce, the demo): one writer at a time
 
-Tables are rewritten whole and atomically at every row (a crash leaves the previous version).
+Tables are rewritten whole and atomically at every row (a crash leaves the previous version). A run's products
+(checkpoints, evaluations, the exported actor) are never removed but by ``--overwrite`` (``RunDir.clear``): a new run
+in a folder that holds them is refused (``RunDir.require_new``).
 
 A packaged run (``PACKAGED``: the generalist that ships with the package) is such a folder with its record and its
 exported actor only, read where a checkpoint is taken by its name (``--checkpoint generalist``), never written.
@@ -24,18 +26,18 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import dataclasses
 import io
 import json
 import shutil
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
-from dragmesh2_jax.io import atomic_write_json, atomic_write_text, folder_lock
+from dragmesh2_jax.io import aside, atomic_write_json, atomic_write_text, folder_lock, restore_aside
 from dragmesh2_jax.ppo.checkpoint import ACTOR_SUFFIX, is_checkpoint
-from dragmesh2_jax.runs.spec import RECORD_FORMAT, RunSpec, Schedule
+from dragmesh2_jax.runs.spec import RECORD_FORMAT, RunSpec
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory, write_trajectory
 
 #: Checkpoints a run offers as its policy, in the order they are preferred.
@@ -83,11 +85,44 @@ class RunDir:
         """Whether the folder holds a run (its record)."""
         return self.record_path.is_file()
 
+    def products(self) -> list[str]:
+        """What the folder holds that a run made and a user keeps (checkpoints, evaluations, the exported actor), by
+        name relative to the folder."""
+        held = [f"{CHECKPOINTS}/{p.name}" for p in sorted((self.path / CHECKPOINTS).glob("*")) if is_checkpoint(p)]
+        held += [f"{EVALUATIONS}/{p.name}" for p in sorted((self.path / EVALUATIONS).glob("*.json"))]
+        return held + ([ACTOR_NAME] if self.actor_path.is_file() else [])
+
     def require_new(self) -> None:
-        """A new run goes to a folder that holds no trained run: one error line otherwise (a run that stopped before
-        its first checkpoint starts again)."""
-        if self.exists() and self.epoch_checkpoints():
-            raise DragMeshError(f"{self.path}: already holds a run (use --resume, or another --out)")
+        """A new run goes to a folder that holds no run's products: one error line otherwise, naming what it holds (a
+        run that stopped before its first checkpoint starts again)."""
+        held = self.products()
+        if held:
+            more = f" and {len(held) - 3} more" if len(held) > 3 else ""
+            resume = ("--resume continues it, " if self.epoch_checkpoints() else
+                      "with no epoch checkpoint to resume from, ")
+            raise DragMeshError(f"{self.path}: already holds a run's products ({', '.join(held[:3])}{more}): "
+                                f"{resume}--overwrite removes them and starts again, or give another --out")
+
+    def clear(self) -> list[str]:
+        """Remove what a run wrote into the folder (``RUN_PRODUCTS``; the rest of the folder stays): what
+        ``--overwrite`` does before a new run. Returns the names removed."""
+        removed = []
+        for p in (self.path / name for name in RUN_PRODUCTS):
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            elif p.exists() or p.is_symlink():
+                p.unlink()
+            else:
+                continue
+            removed.append(p.name)
+        self._record = None
+        return removed
+
+    def restore_interrupted(self) -> list[str]:
+        """Under the writer's lock, before anything is written: each checkpoint whose replacement a kill interrupted
+        is put back whole and what the kill left is removed (``io.restore_aside``). Returns what was done."""
+        folder = self.path / CHECKPOINTS
+        return restore_aside(folder) if folder.is_dir() else []
 
     @contextlib.contextmanager
     def writing(self) -> Iterator[RunDir]:
@@ -103,12 +138,7 @@ class RunDir:
         spec's order) once (``require_new``): what a run that stopped before its first checkpoint left is replaced
         (``RUN_PRODUCTS``; the rest of the folder stays)."""
         self.require_new()
-        if self.exists():
-            for p in (self.path / name for name in RUN_PRODUCTS):
-                if p.is_dir() and not p.is_symlink():
-                    shutil.rmtree(p)
-                elif p.exists() or p.is_symlink():
-                    p.unlink()
+        self.clear()
         self.path.mkdir(parents=True, exist_ok=True)
         trajectories = trajectory if isinstance(trajectory, list) else [trajectory]
         write_trajectory(trajectories[0], self.trajectory_path)
@@ -133,11 +163,11 @@ class RunDir:
     def spec(self) -> RunSpec:
         return RunSpec.from_record(self.record(), where=str(self.record_path))
 
-    def revise(self, schedule: Schedule) -> None:
-        """A resume that trains further or saves and checks otherwise: the record's schedule becomes ``schedule``,
-        rewritten whole and atomically in the current format (a record of an earlier one upgraded as it reads); the
-        rest of the record stands."""
-        spec = dataclasses.replace(self.spec(), schedule=schedule)
+    def revise(self, spec: RunSpec) -> None:
+        """A resume that trains further, saves and checks otherwise or sizes its buffers otherwise: the record's
+        sections become ``spec``'s (``runs/session.py`` says what a resume may change), rewritten whole and
+        atomically in the current format (a record of an earlier one upgraded as it reads); the rest of the record
+        stands."""
         atomic_write_json(self.record_path, {**self.record(), "format": RECORD_FORMAT, **spec.sections()})
         self._record = None
 
@@ -195,6 +225,10 @@ class RunDir:
         for name in (CHECKPOINT_PREFERENCE if rule == "best_robust" else (rule,)):
             if self.has_checkpoint(name):
                 return self.checkpoint(name)
+            if is_checkpoint(kept := aside(self.checkpoint(name))):  # a kill between two renames (not on Linux)
+                print(f"note: {self.checkpoint(name)}: its replacement was interrupted; read from its previous copy "
+                      f"{kept.name} (the run's next train or resume puts it back)", file=sys.stderr)
+                return kept
         raise DragMeshError(f"{self.path}: no checkpoints/{rule} yet (its method reads its runs by their {rule} "
                             "checkpoint; name another: --checkpoint RUN/checkpoints/NAME)")
 

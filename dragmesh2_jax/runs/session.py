@@ -25,6 +25,7 @@ from dragmesh2_jax.evaluation.protocol import SELECTION, EvalProtocol
 from dragmesh2_jax.evaluation.rollout import cells, rollout
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.train import (
+    NonFiniteLearning,
     TrainProgram,
     TrainState,
     init_jit,
@@ -40,6 +41,7 @@ from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.runs.build import programs_of
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.spec import RunSpec, Schedule
+from dragmesh2_jax.task.config import RESIZABLE
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 
@@ -114,14 +116,17 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
                     trajectory: str | Trajectory | None = None, resume: bool | None = None,
                     start: TrainState | None = None, backend: str | None = None, impl: str = "jax",
                     selection: EvalProtocol | None = None, progress: bool = True, log_fn=None,
-                    wandb: str | None = None
+                    wandb: str | None = None, overwrite: bool = False
                     ) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
     """Train the runs in ``runs`` (one per seed, as one program) to their schedule's epochs, holding each run
     folder's lock throughout (a second writer is one error line).
 
     ``resume``: True continues the runs exactly from their newest common checkpoint (their records define them);
-    False starts new runs of ``spec`` (a folder that holds a run with a checkpoint is an error); None resumes when
-    every folder has a checkpoint and starts otherwise. A run stopped before its first checkpoint, whatever stopped
+    False starts new runs of ``spec`` (a folder that holds a run's products, checkpoints or evaluations, is an error:
+    ``RunDir.require_new``); None resumes when every folder has an epoch checkpoint and starts otherwise.
+    ``overwrite``: remove what the runs' folders hold of earlier runs (``RunDir.clear``, said on stderr) and start
+    new runs. A checkpoint whose replacement a kill interrupted is put back first (``RunDir.restore_interrupted``).
+    A run stopped before its first checkpoint, whatever stopped
     it, starts again either way (resumed, from its record). A resumed run takes the schedule of ``spec`` where one
     is given (None: its own): its epochs (more extend the run) and its checkpoint and robustness intervals, revised
     in its record; the rest of the record stands. ``start``: a fine-tune's first state (one run). ``backend``:
@@ -137,11 +142,15 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
         raise DragMeshError("a fine-tune continues one run, not several seeds")
     if wandb:
         wandb_module()  # before anything is written: a missing extra leaves no folder behind
+    if overwrite and resume:
+        raise DragMeshError("--overwrite starts the run again: drop --resume (or drop --overwrite to continue it)")
     with contextlib.ExitStack() as locks:
         for r in runs:
             locks.enter_context(r.writing())
-        return _start_or_resume(spec, runs, seeds, trajectory, resume, start, backend, impl, selection, progress,
-                                log_fn, wandb)
+            for line in r.restore_interrupted():
+                print(f"note: {line}", file=sys.stderr)
+        return _start_or_resume(spec, runs, seeds, trajectory, False if overwrite else resume, start, backend, impl,
+                                selection, progress, log_fn, wandb, overwrite)
 
 
 #: What a resume may change of a run's schedule: its length (more epochs extend it), checkpoint and robustness
@@ -150,15 +159,19 @@ RESCHEDULABLE = ("epochs", "save_every", "robust_every", "robust_episodes")
 
 
 def _continued(recorded: RunSpec, given: RunSpec | None) -> RunSpec:
-    """A recorded run under the schedule a command gives (None: its own), as far as a resume may change it."""
+    """A recorded run under the schedule a command gives (None: its own), as far as a resume may change it, and with
+    the buffer sizes it gives (``TaskConfig.RESIZABLE``: how the run is computed, not what it learns; None: the
+    recorded ones)."""
     if given is None:
         return recorded
-    return dataclasses.replace(recorded, schedule=dataclasses.replace(
-        recorded.schedule, **{k: getattr(given.schedule, k) for k in RESCHEDULABLE}))
+    schedule = {k: getattr(given.schedule, k) for k in RESCHEDULABLE}
+    sizes = {k: v for k in RESIZABLE if (v := getattr(given.task, k)) is not None}
+    return dataclasses.replace(recorded, schedule=dataclasses.replace(recorded.schedule, **schedule),
+                               task=dataclasses.replace(recorded.task, **sizes))
 
 
 def _start_or_resume(given, runs, seeds, trajectory, resume, start, backend, impl, selection, progress, log_fn,
-                     wandb):
+                     wandb, overwrite):
     recorded = all(r.exists() for r in runs)
     common = _resume_epoch(runs) if recorded else None
     spec = given
@@ -194,15 +207,18 @@ def _start_or_resume(given, runs, seeds, trajectory, resume, start, backend, imp
         rows = [r.log_rows(common) for r in runs]
         robust_rows = [r.robust_rows(common) for r in runs]
         for r in runs:  # each keeps its own seed
-            if (schedule := _continued(r.spec(), given).schedule) != r.spec().schedule:
-                r.revise(schedule)
+            if (continued := _continued(r.spec(), given)) != r.spec():
+                r.revise(continued)
     else:
         if spec is None:
             raise DragMeshError("a new run needs its spec")
         for r in runs:
-            r.require_new()
+            if not overwrite:
+                r.require_new()
         program, heldout, tasks = programs_of(spec, trajectory)
         for r, s in zip(runs, seeds, strict=True):  # one stopped before its first checkpoint starts again
+            if overwrite and (removed := r.clear()):  # once the new run is known to build
+                print(f"note: --overwrite: removed {', '.join(removed)} from {r.path}", file=sys.stderr)
             budget = program.task.budget
             r.start(spec.with_seed(s), program.task.engine, [tr for t in tasks for tr in t.trajectories],
                     buffers=None if budget is None else budget.to_json())
@@ -262,10 +278,24 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
             bar.update(e, f"reward {mean['reward']:.2f}  success {mean['success']:.2f}  progress "
                           f"{mean['progress']:.2f}  clip099 {mean['clip099']:.2f}")
 
-        ts = train(program, program.data(len(runs)), ts, epochs, run_mesh(len(runs)), on_epoch)
+        try:
+            ts = train(program, program.data(len(runs)), ts, epochs, run_mesh(len(runs)), on_epoch)
+        except NonFiniteLearning as e:
+            raise DragMeshError(f"{e}; {_last_good(runs[0], program.config.lr)}") from None
     for i, run in enumerate(runs):
         save_checkpoint(take_run(ts, i), run.checkpoint("final"))
     return ts
+
+
+def _last_good(run: RunDir, lr: float) -> str:
+    """Where a run whose learning went non-finite goes on from: its newest checkpoint, as a fine-tune at a lower
+    learning rate (recorded as one)."""
+    epochs = run.epoch_checkpoints()
+    if not epochs:
+        return f"{run.path} has no checkpoint yet: start it again with a lower --ppo.lr and --overwrite"
+    ck = epochs[max(epochs)]
+    return (f"its last good checkpoint is {ck}: continue from it at a lower learning rate with dragmesh2 finetune "
+            f"--checkpoint {ck} --recipe continued --ppo.lr {lr / 10:g} --out NEW_RUN")
 
 
 def wandb_module():

@@ -188,6 +188,10 @@ class ResetNoise:
             raise DragMeshError(f"reset noise bank must be >= 1, got {self.bank}")
 
 
+#: TaskConfig's fields that size buffers or threads: how a run is computed, not what it learns, so a resume may change
+#: them (an MJX contact overflow's advice, ``--task.contacts N``).
+RESIZABLE = ("contacts", "nthread")
+
 
 @dataclass(frozen=True)
 class TaskConfig:

@@ -9,15 +9,18 @@ import shutil
 import sys
 from pathlib import Path
 
+import jax
+import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.ppo import train as train_module
 from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.spec import method_spec
-from tests.conftest import TINY_RUNS, installed_command, read_only
+from tests.conftest import TINY_RUNS, grow, installed_command, read_only, small_filesystem
 from tests.runs.test_session import tensorboard_scalars
 from tests.test_io import hold_lock, release
 
@@ -143,7 +146,109 @@ def test_a_resume_refuses_changed_flags_and_a_longer_schedule_extends_the_record
 
 def test_train_into_a_run_that_has_checkpoints_is_refused(run, capsys):
     assert train(run) == 2
-    one_error(capsys, "already holds a run (use --resume")
+    one_error(capsys, "already holds a run's products (checkpoints/best, checkpoints/best_robust, "
+                      "checkpoints/epoch_0001 and 2 more): --resume continues it, --overwrite removes them")
+
+
+def test_a_pruned_run_is_never_wiped_and_overwrite_says_what_it_removes(run, capsys):
+    """A finished run whose epoch checkpoints were deleted to free disk (final, best, best_robust and evaluations
+    kept): --resume, a plain rerun and the demo's rerun (resume when it can) refuse it, naming --overwrite, and
+    leave every file as it was; --overwrite starts it again and says what it removed."""
+    assert dragmesh2(["evaluate", "--checkpoint", str(run), "--damping", "1", "--mode", "det", "--episodes", "2"]) == 0
+    for ck in RunDir(run).epoch_checkpoints().values():
+        shutil.rmtree(ck)
+    capsys.readouterr()
+    before = {p: p.read_bytes() for p in run.rglob("*") if p.is_file() and p.name != ".lock"}
+    assert {"checkpoints/final", "checkpoints/best_robust", "checkpoints/best"} <= set(RunDir(run).products())
+    for command in (["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet"], ["train", "--object",
+                    str(default_object()), "--out", str(run), *TINY]):
+        assert dragmesh2(command) == 2
+        one_error(capsys, "with no epoch checkpoint to resume from, --overwrite removes them and starts again")
+    with pytest.raises(DragMeshError, match="--overwrite"):
+        session.start_or_resume(RunDir(run).spec(), [RunDir(run)], trajectory=str(run / "trajectory.json"),
+                                resume=None, progress=False)
+    assert {p: p.read_bytes() for p in run.rglob("*") if p.is_file() and p.name != ".lock"} == before
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--overwrite"]) == 2
+    one_error(capsys, "--overwrite starts the run again: drop --resume")
+    assert train(run, "--overwrite", "--epochs", "1") == 0
+    err = capsys.readouterr().err
+    assert ("note: --overwrite: removed run.json, trajectory.json, tb, checkpoints, evaluations, log.jsonl, log.csv, "
+            f"robust.jsonl, robust.csv from {run}") in err
+    assert RunDir(run).trained_epochs() == 1 and not (run / "evaluations").exists()
+
+
+def test_a_checkpoint_whose_replacement_a_kill_interrupted_is_read_and_put_back(run, capsys):
+    """Where two folders cannot be swapped, a kill between a replacement's two renames leaves best_robust aside:
+    evaluation reads it there, saying so (not final, without a word), and the next start puts it back."""
+    ck = RunDir(run).checkpoint("best_robust")
+    ck.rename(ck.with_name(".best_robust.old"))
+    shutil.copytree(RunDir(run).checkpoint("final"), ck.with_name(".best_robust.tmp"))  # the new copy, unfinished
+    assert dragmesh2(["evaluate", "--checkpoint", str(run), "--damping", "1", "--mode", "det", "--episodes", "2",
+                      "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)["checkpoint"].endswith(".best_robust.old")
+    assert f"note: {ck}: its replacement was interrupted; read from its previous copy .best_robust.old" in err
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--quiet", "--robust-every", "0"]) == 0
+    err = capsys.readouterr().err
+    assert f"note: {ck}: restored (a kill interrupted its replacement)" in err
+    assert f"note: {ck.with_name('.best_robust.tmp')}: removed (a replacement a kill left unfinished)" in err
+    assert RunDir(run).has_checkpoint("best_robust")
+    assert sorted(p.name for p in ck.parent.iterdir() if p.name.startswith(".")) == []
+
+
+def test_a_full_disk_during_a_checkpoint_is_one_line_and_the_run_resumes_once_there_is_room(tmp_path, capsys):
+    """On a real filesystem too small for the run (no patched write): one error line, no traceback from a writer
+    thread, no temporary left, every checkpoint written loads; given room, the same run resumes to its end."""
+    with small_filesystem(tmp_path / "disk", "1m") as disk:
+        assert train(disk / "run", "--save-every", "1", "--epochs", "4") == 2
+        one_error(capsys, "No space left on device; free some space and run the same command again")
+        run = RunDir(disk / "run")
+        assert not [p for p in disk.rglob("*") if p.name.endswith((".tmp", ".old"))]
+        for ck in run.epoch_checkpoints().values():
+            assert dragmesh2(["evaluate", "--checkpoint", str(ck), "--damping", "1", "--mode", "det",
+                              "--episodes", "1", "--json"]) in (0, 2)  # 2: loaded, evaluated, not saved (full)
+        capsys.readouterr()
+        grow(disk, "64m")
+        assert dragmesh2(["train", "--out", str(run.path), "--resume", "--quiet"]) == 0
+        assert [r["epoch"] for r in run.log_rows()] == [1, 2, 3, 4]
+
+
+def test_learning_that_goes_non_finite_stops_and_keeps_the_last_good_checkpoint(tmp_path, monkeypatch, capsys):
+    """A NaN in the parameters at epoch 2: one error line naming the last good checkpoint (epoch 1) and the fine-tune
+    that continues it at a lower learning rate; nothing of epoch 2 is saved; that fine-tune runs and is recorded."""
+    real = train_module.epoch_runs
+
+    def diverging(program, data, ts, mesh=None):
+        ts, m = real(program, data, ts, mesh)
+        if int(ts.epoch[0]) == 2:
+            ts = ts.replace(params=jax.tree.map(lambda x: x * np.nan, ts.params))
+        return ts, m
+    monkeypatch.setattr(train_module, "epoch_runs", diverging)
+    assert train(tmp_path / "run", "--save-every", "1", "--epochs", "3") == 2
+    good = RunDir(tmp_path / "run").checkpoint("epoch_0001")
+    line = one_error(capsys, "epoch 2: learning went non-finite (loss")
+    assert f"its last good checkpoint is {good}: continue from it at a lower learning rate with dragmesh2 finetune " \
+           f"--checkpoint {good} --recipe continued --ppo.lr 3e-05" in line
+    assert sorted(RunDir(tmp_path / "run").epoch_checkpoints()) == [1]
+    assert not RunDir(tmp_path / "run").has_checkpoint("final")
+    assert [r["epoch"] for r in RunDir(tmp_path / "run").log_rows()] == [1]
+    monkeypatch.undo()
+    assert dragmesh2(["finetune", "--checkpoint", str(good), "--recipe", "continued", "--ppo.lr", "3e-5", "--epochs",
+                      "1", "--out", str(tmp_path / "ft"), "--quiet", "--backend", "mujoco", "--robust-every", "0"]) == 0
+    spec = RunDir(tmp_path / "ft").spec()
+    assert spec.ppo.lr == 3e-5 and spec.finetune == "continued" and spec.parent == str(good.resolve())
+    assert RunDir(tmp_path / "ft").log_rows()[0]["lr"] == pytest.approx(3e-5, rel=0.6)  # the adaptive rate from it
+
+
+def test_a_resume_may_size_the_buffers_otherwise_and_records_it(run, capsys):
+    """The advice of an MJX contact overflow, --task.contacts N, is accepted on resume (buffers do not change what a
+    run learns) and recorded; a field that changes what it learns is still refused."""
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "3", "--task.contacts", "96",
+                      "--quiet", "--robust-every", "0"]) == 0
+    assert RunDir(run).spec().task.contacts == 96 and RunDir(run).trained_epochs() == 3
+    assert dragmesh2(["train", "--out", str(run), "--resume", "--epochs", "4", "--task.contacts", "128",
+                      "--task.alpha", "0.03"]) == 2
+    one_error(capsys, "task.alpha 0.03 (recorded 0.05)")
 
 
 def test_an_evaluation_that_cannot_be_saved_is_printed_whole(run, capsys):
@@ -251,7 +356,7 @@ def test_a_resume_that_revises_the_schedule_keeps_the_checkpoint_rule(tmp_path):
     run = RunDir(tmp_path / "run")
     atomic_write_json(run.record_path, spec.record("mujoco"))
     given = method_spec("pica", str(default_object()), schedule={"epochs": 400, "save_every": 5, "seed": 1})
-    run.revise(session._continued(run.spec(), given).schedule)
+    run.revise(session._continued(run.spec(), given))
     assert run.spec().schedule == dataclasses.replace(spec.schedule, epochs=400, save_every=5)
 def test_a_fine_tune_stopped_before_its_first_checkpoint_is_not_restarted_from_scratch(run, tmp_path, monkeypatch,
                                                                                         capsys):
