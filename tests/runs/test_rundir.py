@@ -7,6 +7,8 @@ import json
 import random
 import shutil
 
+import jax
+import numpy as np
 import pytest
 
 from dragmesh2_jax.errors import DragMeshError
@@ -14,6 +16,7 @@ from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
+from dragmesh2_jax.runs.spec import SECTIONS
 from tests.conftest import TINY_RUNS, tiny_spec
 
 pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once, beside the others
@@ -84,33 +87,79 @@ def _mutations(rng: random.Random, text: str):
         yield f"dropped {key}", json.dumps({k: v for k, v in record.items() if k != key}, indent=1)
 
 
-def _loads_or_one_line(path, what: str):
+def _loads_or_one_line(load, what: str):
+    """What ``load()`` returns, or None where it raised an error of one line."""
     try:
-        load_run(path)
+        return load()
     except DragMeshError as e:
         assert "\n" not in str(e), what
+        return None
+
+
+def _load_whole(checkpoint):
+    """The train state of a checkpoint (or of a run folder's), its worlds too: what an exact resume restores."""
+    return load_run(checkpoint, keep_env=False)[1]
+
+
+def _same(a, b, what: str) -> None:
+    assert jax.tree.structure(a) == jax.tree.structure(b), what
+    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y), err_msg=what)
+
+
+def _loads_the_saved_or_one_line(checkpoint, saved, what: str) -> None:
+    got = _loads_or_one_line(lambda: _load_whole(checkpoint), what)
+    if got is not None:
+        _same(got, saved, what)
+
+
+def _said(record: dict) -> dict:
+    """What a record states: a key it holds as an empty list or null states what its absence does."""
+    return {k: v for k, v in record.items() if v not in ([], None)}
 
 
 def test_a_damaged_run_folder_loads_or_is_one_error_line(run, tmp_path):
-    rng = random.Random(0)
-    text = json.dumps(run.record(), indent=1)
-    cases = list(_mutations(rng, text))
+    """Each damage is one error line or loads what the folder held, read whole (the learner and the worlds, as an
+    exact resume reads them). A mutated record loads the checkpoint's values and its config as the record now states
+    it (the original's where it states the same). A checkpoint with one of its files truncated (six drawn, or each
+    where it has fewer) or one of its items missing loads the very values saved. A loader that handed back a
+    template's values, or garbage, fails."""
+    saved, record, rng = _load_whole(run.path), run.record(), random.Random(0)
+    cases = list(_mutations(rng, json.dumps(record, indent=1)))
+    assert len(cases) == 12  # truncated, emptied, a line deleted, one duplicated, five numbers, three keys dropped
+    loaded = []
     for k, (what, mutated) in enumerate(cases):
         copy = tmp_path / f"record_{k}"
         shutil.copytree(run.path, copy)
         (copy / "run.json").write_text(mutated)
-        _loads_or_one_line(copy, what)
-    items = [p for p in (run.checkpoint("final")).rglob("*") if p.is_file()]
-    for k, victim in enumerate(rng.sample(items, min(6, len(items)))):
-        copy = tmp_path / f"checkpoint_{k}"
+        got = _loads_or_one_line(lambda copy=copy: load_run(copy, keep_env=False), what)
+        if got is None:
+            continue
+        loaded.append(what)
+        _, ts, again, _ = got
+        _same(ts, saved, what)  # the checkpoint's values, whatever the record says
+        stated, spec = json.loads(mutated), json.loads(json.dumps(again.spec().sections()))
+        held = [section for section in SECTIONS if section in stated]
+        assert {x: spec[x] for x in held} == {x: stated[x] for x in held}, what  # each section as it now reads
+        if _said(stated) == _said(record):  # it states what the original did
+            assert again.spec() == run.spec(), what
+    assert loaded and len(loaded) < len(cases), loaded  # the fuzz meets both outcomes: neither check stands idle
+    final = run.checkpoint("final")
+    files = sorted(p.relative_to(run.path) for p in final.rglob("*") if p.is_file())
+    for k, name in enumerate(rng.sample(files, min(6, len(files)))):
+        copy = tmp_path / f"truncated_{k}"
         shutil.copytree(run.path, copy)
-        target = copy / victim.relative_to(run.path)
-        data = target.read_bytes()
-        target.write_bytes(data[: len(data) // 2])  # truncated
-        _loads_or_one_line(copy / "checkpoints" / "final", f"truncated {victim.name}")
-    for item in ("learner", "env"):
+        data = (copy / name).read_bytes()
+        (copy / name).write_bytes(data[: len(data) // 2])
+        _loads_the_saved_or_one_line(copy / "checkpoints" / "final", saved, f"truncated {name}")
+    items = sorted(p.name for p in final.iterdir())
+    for item in items:
         copy = tmp_path / f"missing_{item}"
         shutil.copytree(run.path, copy)
-        shutil.rmtree(copy / "checkpoints" / "final" / item)
-        _loads_or_one_line(copy / "checkpoints" / "final", f"no {item}")
-    assert len(cases) >= 10
+        missing = copy / "checkpoints" / "final" / item
+        if missing.is_dir():
+            shutil.rmtree(missing)
+        else:
+            missing.unlink()
+        _loads_the_saved_or_one_line(copy / "checkpoints" / "final", saved, f"no {item}")
+    assert len(items) == 2 and len(files) >= 2  # the learner's and the worlds' items, each one or more files

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import jax
+import numpy as np
 import pytest
 from tensorboardX.proto import event_pb2
 
@@ -20,7 +21,7 @@ from dragmesh2_jax.runs.commands import finetune_run, load_run
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import robust_score, start_or_resume, training_success
 from dragmesh2_jax.runs.spec import finetune_spec
-from dragmesh2_jax.task.config import ReconfigConfig
+from dragmesh2_jax.task.config import AramConfig, ReconfigConfig
 from dragmesh2_jax.task.rewards import BASE_TERMS, TERM_PREFIX
 from tests.conftest import TINY_RUNS, require_package, tiny_spec
 
@@ -117,18 +118,35 @@ def test_training_success_is_read_where_episodes_ended():
     assert training_success(rows[2:]) == training_success([]) == "no training episode ended"
 
 
-def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path):
+def test_aram_reconfig_finetune_runs_and_updates_lambda(trained_run, tmp_path, monkeypatch):
+    """ARAM + Reconfig continue the run, and ARAM's lambda moves once per epoch by its rule (``aram_update``): where
+    the epoch's episodes ended and succeeded more than the gate, lambda <- clip(lambda + lr (clip099 - target), 0,
+    lambda_max), from the parent's lambda. The tiny run's episodes neither end within the fine-tune nor succeed, so
+    the preset's gate would hold lambda at 0: here episodes last 4 steps (two end per world and epoch), the gate is
+    below any success and the target below any clip099, so the rule raises lambda every epoch."""
+    aram = AramConfig(success_gate=-1.0, target=-0.5)
+    both = FINETUNES["both"]
+    monkeypatch.setitem(FINETUNES, "both", dataclasses.replace(both, overrides={
+        **both.overrides, "task.reward.aram": aram, "task.episode_length": 4}))
     parent, rows = finetune_run(str(trained_run.path), "both", str(tmp_path / "ft"), epochs=2,
                                 schedule={"robust_every": 0}, progress=False)
-    start = int(load_run(parent)[1].epoch)
-    assert parent.name == "best_robust" and [r["epoch"] for r in rows] == [start + 1, start + 2]
-    assert all("aram_lambda" in r and 0.0 <= r["aram_lambda"] <= 1.0 for r in rows)
+    _, start, _, _ = load_run(parent)
+    assert parent.name == "best_robust" and [r["epoch"] for r in rows] == [int(start.epoch) + 1, int(start.epoch) + 2]
+    lam = np.float32(start.aram_lambda)
+    assert lam == 0.0  # the parent had no ARAM: lambda starts where a new run's does
+    for r in rows:
+        assert r["episodes"] > 0 and r["success"] > aram.success_gate  # the gate opens
+        lam = np.clip(lam + np.float32(aram.lr) * (np.float32(r["clip099"]) - np.float32(aram.target)), 0.0,
+                      aram.lambda_max)
+        assert r["aram_lambda"] == pytest.approx(lam, rel=1e-6), r["epoch"]
+    assert 0.0 < rows[0]["aram_lambda"] < rows[1]["aram_lambda"]  # it rose every epoch
     assert all({"reward/aram", "reward/reconfig"} <= set(r) and r["reward/reconfig"] >= 0.0 for r in rows)
     ft = RunDir(tmp_path / "ft")
     spec = ft.spec()
-    assert spec.finetune == "both" and spec.task.reward.aram.stall_steps == 5 and spec.parent == str(parent.resolve())
-    program, _, _, _ = load_run(ft.path)  # the record rebuilds the fine-tune's task
-    assert program.task.config.reward.reconfig == ReconfigConfig()
+    assert spec.finetune == "both" and spec.task.reward.aram == aram and spec.parent == str(parent.resolve())
+    program, ts, _, _ = load_run(ft.path)  # the record rebuilds the fine-tune's task
+    assert program.task.config.reward.reconfig == ReconfigConfig() and program.task.config.reward.aram == aram
+    assert float(ts.aram_lambda) == pytest.approx(rows[-1]["aram_lambda"])  # and its lambda is kept
 
 
 def test_the_robustness_checks_run_the_schedules_episodes(tmp_path, monkeypatch):
