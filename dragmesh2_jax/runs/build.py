@@ -3,41 +3,14 @@ task; a :class:`~dragmesh2_jax.runs.spec.RunSpec` becomes a training program."""
 
 from __future__ import annotations
 
-import sys
-
-from dragmesh2_jax.assets.gapartnet import load_gapartnet
-from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.ppo.train import TrainProgram, make_train
 from dragmesh2_jax.runs.spec import RunSpec
-from dragmesh2_jax.scene import SceneConfig, build_scene
+from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig
-from dragmesh2_jax.task.env import PullTask, trajectory_joint
+from dragmesh2_jax.task.env import PullTask
+from dragmesh2_jax.task.load import task_of
 from dragmesh2_jax.task.mix import ObjectMix
-from dragmesh2_jax.trajectory.generator import generate
-from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory
-
-
-def adopt_trajectory_target(obj, traj: Trajectory):
-    """The object with the part ``traj`` moves as its target (paper §3.1: the target joint is the DoF with the
-    largest motion range in the reference trajectory), saying so when that is not the default target."""
-    moved = trajectory_joint(obj, traj)
-    if moved != obj.target.joint.name:
-        print(f"note: the trajectory moves joint {moved} of object {obj.object_id}; it becomes the target (the "
-              f"default target was {obj.target.joint.name})", file=sys.stderr)
-    return obj.with_target(moved)
-
-
-def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskConfig,
-            scene_config: SceneConfig = SceneConfig()) -> PullTask:
-    """Object + trajectory (a file, a trajectory, or None: generated) -> the task, in ``scene_config``."""
-    if not object_dir:
-        raise DragMeshError("no object folder given (--object)")
-    obj = load_gapartnet(object_dir)
-    traj = read_trajectory(trajectory) if isinstance(trajectory, str) else trajectory
-    if traj is not None:
-        obj = adopt_trajectory_target(obj, traj)
-    scene = build_scene(obj, scene_config)
-    return PullTask(scene, generate(obj, scene=scene) if traj is None else traj, config)
+from dragmesh2_jax.trajectory.schema import Trajectory
 
 
 def load_task(object_dir: str, trajectory: str | Trajectory | None = None, backend: str = "auto", impl: str = "jax",

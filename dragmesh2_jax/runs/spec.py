@@ -17,10 +17,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from dragmesh2_jax.assets.procedural import default_objects_dir
 from dragmesh2_jax.errors import DragMeshError
@@ -32,7 +30,7 @@ from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
 from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict, versions
 from dragmesh2_jax.scene import SceneConfig
-from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.config import TaskConfig, apply_overrides
 
 SAVE_EVERY = 10  # epochs between a run's checkpoints
 ROBUST_EVERY = 10  # epochs between the robustness checks that select best_robust (paper App. B.3)
@@ -204,36 +202,6 @@ def _upgraded(method: str, sections: dict) -> dict:
         ppo["aux_weight"] = own.ppo.aux_weight
     return {**sections, "ppo": ppo, "schedule": {**config_to_dict(own.schedule), **sections["schedule"], **moved},
             "network": {**config_to_dict(own.network), **sections["network"]}}
-
-
-def apply_overrides(tree, overrides: Mapping[str, Any], where: str = ""):
-    """``tree`` (a frozen dataclass whose fields may be frozen dataclasses) with each dotted path of ``overrides``
-    (``"task.reward.w_bound"``) set to its value: one ``dataclasses.replace`` per node that changes, so each config
-    checks its new values together; a path onto a value already given (``"task.reward"`` and
-    ``"task.reward.w_load"``) refines that value. An unknown path is one error line naming it."""
-    if not overrides:
-        return tree
-    direct: dict[str, Any] = {}
-    nested: dict[str, dict[str, Any]] = {}
-    for path, value in overrides.items():
-        head, _, rest = path.partition(".")
-        if rest:
-            nested.setdefault(head, {})[rest] = value
-        else:
-            direct[head] = value
-    names = {f.name for f in dataclasses.fields(tree)}
-    unknown = [f"{where}{k}" for k in [*direct, *nested] if k not in names]
-    if unknown:
-        raise DragMeshError(f"unknown setting {', '.join(unknown)} (a {type(tree).__name__} has "
-                            f"{', '.join(sorted(names))})")
-    changes = dict(direct)
-    for head, sub in nested.items():
-        node = changes.get(head, getattr(tree, head))
-        if not dataclasses.is_dataclass(node):
-            raise DragMeshError(f"unknown setting {where}{head}.{next(iter(sub))} ({where}{head} is "
-                                f"{type(node).__name__}, not a config)")
-        changes[head] = apply_overrides(node, sub, f"{where}{head}.")
-    return dataclasses.replace(tree, **changes)
 
 
 def method_defaults(method: str) -> RunSpec:

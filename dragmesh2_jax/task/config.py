@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import jax
 
@@ -287,3 +290,35 @@ class TaskConfig:
         if self.backend != "auto":
             return self.backend
         return "mjx" if jax.default_backend() in ("gpu", "tpu", "cuda", "rocm") else "mujoco"
+
+
+def apply_overrides(tree, overrides: Mapping[str, Any], where: str = ""):
+    """``tree`` (a frozen dataclass whose fields may be frozen dataclasses: a :class:`TaskConfig`, a run's spec
+    ``runs/spec.RunSpec``) with each dotted path of ``overrides`` (``"task.reward.w_bound"``) set to its value: one
+    ``dataclasses.replace`` per node that changes, so each config checks its new values together; a path onto a value
+    already given (``"task.reward"`` and ``"task.reward.w_load"``) refines that value. An unknown path is one error
+    line naming it. It lives here, below both, so that the task's envs (``task/playground.py``) and the run tree share
+    one reading of a dotted path."""
+    if not overrides:
+        return tree
+    direct: dict[str, Any] = {}
+    nested: dict[str, dict[str, Any]] = {}
+    for path, value in overrides.items():
+        head, _, rest = path.partition(".")
+        if rest:
+            nested.setdefault(head, {})[rest] = value
+        else:
+            direct[head] = value
+    names = {f.name for f in dataclasses.fields(tree)}
+    unknown = [f"{where}{k}" for k in [*direct, *nested] if k not in names]
+    if unknown:
+        raise DragMeshError(f"unknown setting {', '.join(unknown)} (a {type(tree).__name__} has "
+                            f"{', '.join(sorted(names))})")
+    changes = dict(direct)
+    for head, sub in nested.items():
+        node = changes.get(head, getattr(tree, head))
+        if not dataclasses.is_dataclass(node):
+            raise DragMeshError(f"unknown setting {where}{head}.{next(iter(sub))} ({where}{head} is "
+                                f"{type(node).__name__}, not a config)")
+        changes[head] = apply_overrides(node, sub, f"{where}{head}.")
+    return dataclasses.replace(tree, **changes)
