@@ -16,8 +16,6 @@ import math
 from typing import Any
 
 import flax.linen as nn
-import jax
-import jax.numpy as jnp
 from brax.training.agents.ppo import networks as ppo_networks
 from brax.training.agents.ppo import train as ppo
 
@@ -29,17 +27,6 @@ from dragmesh2_jax.task.env import PullTask
 
 BRAX_STATE_ONLY = "brax_state_only"
 NETWORK = NetworkConfig()  # our state MLP's sizes (for brax's policy and value networks) and initial log std
-
-
-def _device_put_replicated(x: Any, devices: list) -> Any:
-    """``x`` stacked once per device (``pmap`` places the copies): what ``jax.device_put_replicated`` did."""
-    return jax.tree.map(lambda a: jnp.stack([jnp.asarray(a)] * len(devices)), x)
-
-
-def _jax_compat() -> None:
-    """brax 0.14.2 (the newest release) still calls ``jax.device_put_replicated``, which jax 0.10 removed."""
-    if not hasattr(jax, "device_put_replicated"):
-        jax.device_put_replicated = _device_put_replicated
 
 
 def brax_ppo_kwargs(config: PPOConfig, episode_length: int, epochs: int = PAPER_EPOCHS, seed: int = 42) -> dict:
@@ -63,8 +50,7 @@ def train_brax_ppo(task: PullTask, config: PPOConfig = PPOConfig(), epochs: int 
     """Train state-only PPO with brax on ``task`` (the state-only preset's task) for ``epochs`` of our updates'
     budget from ``seed``; returns the trained policy as the evaluator's :class:`Controller` and brax's final
     training metrics."""
-    _jax_compat()
-    env = BraxPullEnv(task)
+    env = BraxPullEnv(task)  # state-only: s_t (its construction lets brax 0.14 run on jax 0.10)
     network_factory = functools.partial(
         ppo_networks.make_ppo_networks, policy_hidden_layer_sizes=NETWORK.state_sizes,
         value_hidden_layer_sizes=NETWORK.state_sizes,

@@ -1,6 +1,7 @@
-"""Both notebooks run top to bottom on a tiny budget (``DRAGMESH2_NOTEBOOK_TINY=1``), as a user runs them, and show
+"""The notebooks run top to bottom on a tiny budget (``DRAGMESH2_NOTEBOOK_TINY=1``), as a user runs them, and show
 what their text says they show: the object and its expert grasp as a picture, the expert drag opening the packaged
-drawer, a run's record, its curves as a figure and its evaluation table."""
+drawer, a run's record, its curves as a figure and its evaluation table, and brax's PPO training the task through
+its Playground and brax envs, its reward as a figure."""
 
 from pathlib import Path
 
@@ -47,3 +48,11 @@ def test_a_trained_runs_record_curves_and_evaluation(tmp_path):
     assert "'method': 'pica'" in record["text"] and "'backend': 'mujoco'" in record["text"]
     assert curves["png"]
     assert "checkpoint `best_robust`, epoch" in evaluation["text"] and "| x2 | det |" in evaluation["text"]
+
+
+def test_brax_ppo_trains_the_task_through_its_playground_and_brax_envs_and_plots_the_reward(tmp_path):
+    _, playground, registered, train, plot = run_notebook("brax_ppo.ipynb", tmp_path)
+    assert "'history': (16, 102)" in playground["text"] and "action: 51" in playground["text"]
+    assert "brax observation: 1752 = 120 + (16, 102)" in registered["text"]
+    assert train["text"].count("evaluation return") == 3 and "success rate of the last evaluation" in train["text"]
+    assert plot["png"]
