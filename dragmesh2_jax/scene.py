@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+from typing import Literal
 
 import mujoco
 import numpy as np
@@ -63,19 +64,32 @@ RESET_SETTLE_SUBSTEPS = 4
 
 @dataclass(frozen=True)
 class SceneConfig:
-    scale: float = 0.4  # object scale (design §2)
-    object_pos: tuple[float, float, float] = (0.5, 0.0, 0.6)  # m, world (design §2)
-    timestep: float = 1.0 / 240.0  # s: the reference's 60 Hz control x 4 PhysX substeps
-    damping: float = 10.0  # nominal target-joint damping (design §2)
-    armature: float = 0.005  # object DoF armature (design §2)
-    link_areal_density: float = 5.0  # kg/m^2 (thin-shell mass of the target part)
-    friction: float = 1.5  # object sliding friction
-    collide: str = "target"  # "target" | "all"
-    collision_radius: float = 0.2  # m (world): target-part pieces this near the handle's surface collide
-    gravity: bool = True  # gravity on (off: a part moves only by contact and its damping)
-    solver_iterations: int = 4  # MuJoCo's constraint solver iterations
-    ls_iterations: int = 8  # MuJoCo's line-search iterations per solver iteration
-    effector: str = "hand"  # "hand" (the 51-DoF hand) | "parallel_jaw" (the primitive's gripper)
+    scale: float = 0.4
+    """object scale (design §2)"""
+    object_pos: tuple[float, float, float] = (0.5, 0.0, 0.6)
+    """m, world (design §2)"""
+    timestep: float = 1.0 / 240.0
+    """s: the reference's 60 Hz control x 4 PhysX substeps"""
+    damping: float = 10.0
+    """nominal target-joint damping (design §2)"""
+    armature: float = 0.005
+    """object DoF armature (design §2)"""
+    link_areal_density: float = 5.0
+    """kg/m^2 (thin-shell mass of the target part)"""
+    friction: float = 1.5
+    """object sliding friction"""
+    collide: Literal["target", "all"] = "target"
+    """which object pieces collide with the hand: the target part's near its handle, or every piece"""
+    collision_radius: float = 0.2
+    """m (world): target-part pieces this near the handle's surface collide"""
+    gravity: bool = True
+    """gravity on (off: a part moves only by contact and its damping)"""
+    solver_iterations: int = 4
+    """MuJoCo's constraint solver iterations"""
+    ls_iterations: int = 8
+    """MuJoCo's line-search iterations per solver iteration"""
+    effector: Literal["hand", "parallel_jaw"] = "hand"
+    """the 51-DoF hand, or the parallel-jaw primitive's gripper"""
     hand: hand_lib.HandConfig = field(default_factory=hand_lib.HandConfig)
     gripper: gripper_lib.GripperConfig = field(default_factory=gripper_lib.GripperConfig)
     geometry: GeometryConfig = field(default_factory=GeometryConfig)
@@ -118,13 +132,18 @@ class SceneConfig:
 class SceneIds:
     """Indices into the compiled model. Hand arrays are in the 51-DoF action order."""
 
-    hand_qpos: np.ndarray  # (51,) qpos addresses
-    hand_dof: np.ndarray  # (51,) dof (qvel) addresses
-    hand_actuators: np.ndarray  # (51,)
-    hand_range: np.ndarray  # (51, 2) joint limits
+    hand_qpos: np.ndarray
+    """(51,) qpos addresses"""
+    hand_dof: np.ndarray
+    """(51,) dof (qvel) addresses"""
+    hand_actuators: np.ndarray
+    """(51,)"""
+    hand_range: np.ndarray
+    """(51, 2) joint limits"""
     target_qpos: int
     target_dof: int
-    target_range: tuple[float, float]  # MuJoCo units (m or rad); closed = lower
+    target_range: tuple[float, float]
+    """MuJoCo units (m or rad); closed = lower"""
     target_is_revolute: bool
     handle_site: int
     palm_site: int
@@ -140,7 +159,8 @@ class Scene:
     obj: GAPartNetObject = field(repr=False)
     config: SceneConfig
     xml: str = field(repr=False)
-    handle: HandleFrame  # world frame, object closed
+    handle: HandleFrame
+    """world frame, object closed"""
     stats: dict
 
     def settled_state(self, hand_q: np.ndarray, obj_q: float,

@@ -26,8 +26,8 @@ def test_bench_env_json(capsys):
 
 def test_bench_env_mixes_objects_in_one_batch(capsys):
     """Several objects: one batch whose worlds step a drawer and a door, as training over several objects does."""
-    pair = ",".join(str(packaged_object(n)) for n in ("drawer_cabinet_0000", "door_cabinet_0000"))
-    assert dragmesh2(["bench", "env", "--backend", "mujoco", "--object", pair, "--num-envs", "4", "--steps", "3",
+    pair = [str(packaged_object(n)) for n in ("drawer_cabinet_0000", "door_cabinet_0000")]
+    assert dragmesh2(["bench", "env", "--backend", "mujoco", "--objects", *pair, "--num-envs", "4", "--steps", "3",
                       "--json"]) == 0
     (row,) = json.loads(capsys.readouterr().out)
     assert row["objects"] == 2 and row["num_envs"] == 4 and row["physics_steps_per_s"] > 0

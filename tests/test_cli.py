@@ -13,13 +13,15 @@ from PIL import Image
 
 from dragmesh2_jax import render
 from dragmesh2_jax.assets.procedural import default_object, packaged_object
-from dragmesh2_jax.cli.flags import GROUPS, NOT_FLAGS, SHORT_FLAGS, parse_tree, print_tree_help, tree_changes
+from dragmesh2_jax.cli.flags import GROUPS, NOT_FLAGS, RENAMED, SHORT_FLAGS, parse_tree, print_tree_help
 from dragmesh2_jax.cli.parser import build_parser
 from dragmesh2_jax.evaluation.protocol import PAPER
-from dragmesh2_jax.policies.methods import RECOMMENDED
+from dragmesh2_jax.ppo.checkpoint import is_checkpoint
 from dragmesh2_jax.runs.build import program_of
+from dragmesh2_jax.runs.commands import train_defaults
+from dragmesh2_jax.runs.presets import DEFAULT_METHOD, FINETUNES, METHODS, OFFERED, RECOMMENDED, STATUSES
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.spec import RunSpec, method_defaults, method_spec
+from dragmesh2_jax.runs.spec import RunSpec, method_defaults, on_objects
 from tests.conftest import installed_command
 
 dragmesh2 = installed_command()
@@ -57,7 +59,7 @@ def test_demo_trains_evaluates_and_reports(tmp_path):
     assert "| x1 | det |" in report and "success_vs_damping.png" in report and "(2 episodes per cell" in report
     for png in ("success_vs_damping.png", "grasp.png"):
         assert (tmp_path / png).read_bytes()[:4] == b"\x89PNG"
-    assert (tmp_path / "checkpoints" / "final" / "learner").is_dir()
+    assert is_checkpoint(tmp_path / "checkpoints" / "final")
     frames, width, height = _gif(tmp_path / "policy.gif")
     assert "policy.gif" in report and frames >= 2 and width == 3 * height * 4 // 3  # three panels: x1, x2, x4
     # MuJoCo's renderer where it runs (CI installs libosmesa6), else the fallback
@@ -161,8 +163,10 @@ def flag_of(path: str) -> str:
     """The flag of a field of the tree by its dotted path: ``--task.reward.w-bound``, the schedule's ``--epochs``,
     the batch's ``--num-envs``."""
     group, _, rest = path.partition(".")
-    short = group == "schedule" or rest in SHORT_FLAGS.get(type(getattr(RunSpec("m", "o"), group)), ())
-    return "--" + (rest if short else path).replace("_", "-")
+    config = type(getattr(RunSpec("m", "o"), group))
+    rest = RENAMED.get(config, {}).get(rest, rest)
+    short = group == "schedule" or rest in SHORT_FLAGS.get(config, ())
+    return "--" + (rest if short else f"{group}.{rest}").replace("_", "-")
 
 
 def _flag(value) -> str:
@@ -197,12 +201,13 @@ def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and
         argv += [a for f, v in values.items() for a in (flag_of(f"{prefix}.{f}"), _flag(v))]
     args, rest = build_parser().parse_known_args(argv)
     default = method_defaults("pica")
-    changes = tree_changes(parse_tree(rest, default, "dragmesh2 train"), default)
-    assert changes == FLAG_VALUES
+    tree = parse_tree(rest, default, "dragmesh2 train")  # the parsed tree, passed to the run whole
+    assert tree.overrides(default) == {f"{g}.{f}": v for g, values in FLAG_VALUES.items() for f, v in values.items()}
     assert args.objects == objects
-    spec = method_spec("pica", args.objects, changes["ppo"], changes["task"], changes["scene"], backend="mujoco",
-                       network=changes["network"], schedule=changes["schedule"])
-    assert RunSpec.from_record(spec.record("mujoco")) == spec  # the record holds every flag
+    spec = on_objects(tree.on("mujoco"), args.objects)
+    record = spec.record("mujoco")
+    assert RunSpec.from_record(record) == spec  # the record holds every flag
+    assert record["overrides"] == json.loads(json.dumps({**tree.overrides(default), "task.backend": "mujoco"}))
     program = program_of(spec)
     assert program.task.num_objects == 2
     built = {"task": program.task.config, "scene": program.task.scene.config, "ppo": program.config,
@@ -278,6 +283,58 @@ def test_help_shows_every_default():
     assert "(default: 300)" in flags["--epochs"] and "(default: 0.05)" in flags["--task.alpha"]
     assert "(default: 64)" in flags["--num-envs"] and "(default: 42)" in flags["--seed"]
     assert "(default: 100.0)" in tree_help(method_defaults("recommended"))["--ppo.smooth-coef"]
+
+
+def _flag_helps(default: RunSpec) -> dict[str, str]:
+    """Each configuration flag's own help text under ``default`` (its type and default left out)."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        print_tree_help(default, "dragmesh2 train")
+    helps, flag = {}, None
+    for line in out.getvalue().splitlines():
+        text = line.strip(" \u2502\u256d\u256e\u2570\u256f\u2500")
+        if m := re.match(r"(--[a-z][\w.-]*)", text):
+            flag, helps[m.group(1)] = m.group(1), ""
+        elif flag and text and set(text) - set("-"):
+            helps[flag] += " " + text
+        else:
+            flag = None
+    return {f: re.sub(r"\s*\(default: [^)]*\)$", "", h).strip() for f, h in helps.items()}
+
+
+def test_train_help_is_one_short_page_and_names_the_offered_methods(capsys):
+    assert dragmesh2(["train", "--help"]) == 0
+    text = capsys.readouterr().out
+    assert len(text.splitlines()) < 150 and text.count("usage:") == 1
+    assert "--task.reward.NAME:" in text and "w-bound" in text and "--help-tree" in text
+    options = text[text.index("options:"):]
+    method_help = options[options.index("--method METHOD"):options.index("--list-methods")]
+    for m in METHODS.values():  # the paper's, the recommended and the generalist are named; the others listed apart
+        assert bool(re.search(rf"\b{m.name}\b", method_help)) == (m.status in OFFERED), m.name
+    assert dragmesh2(["train", "--list-methods"]) == 0
+    listed = capsys.readouterr().out.splitlines()
+    assert len(listed) == len(METHODS) + len(FINETUNES)
+    assert all(line.split()[1 if not line.startswith("finetune") else 2] in STATUSES for line in listed)
+
+
+def test_every_flag_shows_its_own_fields_help():
+    """No flag shows another field's text (tyro reads each field's docstring), under methods with the nested groups
+    on and off; choice fields show their values."""
+    for method in ("pica", "recommended", "hold_blind_cmdp"):
+        helps = _flag_helps(method_defaults(method))
+        assert all(helps.values()), [f for f, h in helps.items() if not h]
+        by_text = {}
+        for flag, text in helps.items():
+            by_text.setdefault(text, set()).add(flag.rsplit(".", 1)[-1])
+        assert not {t: names for t, names in by_text.items() if len(names) > 1}, method
+    shown = tree_help(method_defaults("recommended"))
+    for flag, values in (("--task.reward.lagrangian", "{plain,normalized}"), ("--network.encoder", "gla"),
+                         ("--ppo.lr-schedule", "{fixed,adaptive}"), ("--scene.hand.side", "{right,left}")):
+        assert values in shown[flag], shown[flag]
+
+
+def test_train_without_a_method_trains_the_recipe():
+    assert train_defaults(None, None, False, None).method == RECOMMENDED == DEFAULT_METHOD
 
 
 def test_envelope_prints_the_cells_and_rejects_a_bad_pace(capsys):

@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 from dragmesh2_jax.assets import procedural
+from dragmesh2_jax.ppo.checkpoint import is_checkpoint
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.reproduce import executor
 from tests.conftest import ROOT, SHARED, installed_command, require_shared
@@ -51,7 +52,7 @@ BUDGETS = [
     ("dragmesh2 train --method pica --dataset ", TRAIN),
     ("dragmesh2 train --generalist ", TRAIN),
     ("dragmesh2 evaluate --checkpoint generalist ", ["--episodes", "1", "--mode", "det", "--damping", "1"]),
-    ("dragmesh2 open ", ["--episodes", "1", "--every", "100"]),
+    ("dragmesh2 open ", ["--episodes", "1", "--video-every", "100"]),
     ("dragmesh2 evaluate --checkpoint runs/pica_45261 ", ["--episodes", "1"]),
     ("dragmesh2 evaluate --checkpoint runs/hold", ["--episodes", "1", "--mode", "det"]),
     ("dragmesh2 evaluate --checkpoint runs/mix ", ["--episodes", "1", "--mode", "det"]),
@@ -60,7 +61,7 @@ BUDGETS = [
     ("dragmesh2 bench train ", ["--num-envs", "2", "--runs", "1,2", "--epochs", "1"]),
     ("dragmesh2 bench learning --record ", ["--epochs", "1", "--seeds", "0"]),
     ("dragmesh2 bench learning --against ", []),
-    ("dragmesh2 video ", ["--damping", "1,2", "--every", "100"]),
+    ("dragmesh2 video ", ["--damping", "1,2", "--video-every", "100"]),
     ("dragmesh2 view --checkpoint ", ["--steps", "3"]),
     ("dragmesh2 view --object ", ["--steps", "3"]),
     ("dragmesh2 reproduce main ablation --objects ", []),
@@ -124,7 +125,7 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, displ
     assert Path("grasp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and Path("envelope.png").is_file()
     assert Path("t.json").is_file() and Path("dataset/manifest.csv").is_file() and Path("curves.json").is_file()
     for run in ("pica_45261", "hold", "pica3/seed_2", "mix", "ds", "mix_45780", "pica_45261_aram"):
-        assert Path("runs", run, "checkpoints", "final", "learner").is_dir(), run
+        assert is_checkpoint(Path("runs", run, "checkpoints", "final")), run
     # a log gets one plain progress line per epoch, with the time taken and left
     lines = [ln for ln in printed[BUDGETS[10][0]].err.splitlines() if ln.startswith("train pica: epoch")]
     assert [ln.split()[3] for ln in lines] == ["1/2", "2/2"]

@@ -10,7 +10,6 @@ import pytest
 
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.reproduce import (
     PAPER_CELLS,
     PAPER_OBJECTS,
@@ -22,6 +21,7 @@ from dragmesh2_jax.reproduce import (
     plan,
     reproduce,
 )
+from dragmesh2_jax.runs.presets import RECOMMENDED
 from tests.conftest import installed_command
 
 TINY = ReproduceConfig(objects=(str(default_object()),), seeds=(0,), epochs=2, num_envs=2, episodes=2,

@@ -143,11 +143,16 @@ def concavity(v: np.ndarray) -> float:
 class GeometryConfig:
     """How link meshes become collision pieces."""
 
-    max_hull_vertices: int = 32  # vertices of a convex piece at most (MJX's limit for fast collisions)
-    decompose_handles: bool = True  # concave handles into convex pieces by CoACD
-    max_handle_pieces: int = 4  # CoACD's pieces per handle at most
-    coacd_threshold: float = 0.05  # CoACD's concavity threshold
-    concavity_tolerance: float = 0.1  # decompose only pieces whose deepest vertex lies this far inside the hull
+    max_hull_vertices: int = 32
+    """vertices of a convex piece at most (MJX's limit for fast collisions)"""
+    decompose_handles: bool = True
+    """concave handles into convex pieces by CoACD"""
+    max_handle_pieces: int = 4
+    """CoACD's pieces per handle at most"""
+    coacd_threshold: float = 0.05
+    """CoACD's concavity threshold"""
+    concavity_tolerance: float = 0.1
+    """decompose only pieces whose deepest vertex lies this far inside the hull"""
 
     def key(self) -> str:
         """The collision cache's key part: the version and every field (any change rebuilds the pieces)."""

@@ -33,9 +33,12 @@ class GripperConfig:
 
     virtual: DriveGains = field(default_factory=lambda: HandConfig().virtual)
     wrist: DriveGains = field(default_factory=lambda: HandConfig().wrist)
-    finger: DriveGains = DriveGains(kp=2000.0, kv=20.0, force_limit=40.0, armature=0.01)  # N/m, N s/m, N (squeeze)
-    friction: float = 1.5  # sliding friction of the pads
-    contact_timeconst: float = 0.0085  # s, as the hand's
+    finger: DriveGains = DriveGains(kp=2000.0, kv=20.0, force_limit=40.0, armature=0.01)
+    """N/m, N s/m, N (squeeze)"""
+    friction: float = 1.5
+    """sliding friction of the pads"""
+    contact_timeconst: float = 0.0085
+    """s, as the hand's"""
 
 
 def dof_names() -> tuple[str, ...]:

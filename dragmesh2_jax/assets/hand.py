@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -101,28 +102,37 @@ class DriveGains:
     target step in well under one 1/60 s control period. ``tests/assets/test_hand.py`` checks stability.
     """
 
-    kp: float  # stiffness
-    kv: float  # damping
-    force_limit: float  # |force| limit
-    armature: float  # joint armature
+    kp: float
+    """stiffness"""
+    kv: float
+    """damping"""
+    force_limit: float
+    """|force| limit"""
+    armature: float
+    """joint armature"""
 
 
 @dataclass(frozen=True)
 class HandConfig:
     """Hand model options. Defaults: right hand, gains chosen for dt = 1/240 s with implicitfast."""
 
-    side: str = "right"  # "right" | "left" (mirror image across the hand's y-z plane)
+    side: Literal["right", "left"] = "right"
+    """left: the right hand's mirror image across its y-z plane"""
     virtual: DriveGains = DriveGains(kp=3000.0, kv=80.0, force_limit=300.0, armature=0.1)
     wrist: DriveGains = DriveGains(kp=100.0, kv=2.5, force_limit=50.0, armature=0.01)
     finger: DriveGains = DriveGains(kp=30.0, kv=0.5, force_limit=1.0, armature=0.002)
-    virtual_range: tuple[tuple[float, float], ...] = ((-2.0, 2.0), (-2.0, 2.0), (0.0, 2.0))  # m (design §1)
-    wrist_range_deg: tuple[float, float] = (-180.0, 180.0)  # the three wrist hinges' range, degrees
-    friction: float = 1.5  # sliding friction of hand geoms
-    # Contact and finger joint-limit stiffness: solref time constant (s). MuJoCo's default 0.02 lets the light,
-    # armature-dominated phalanges sink ~2 cm into a handle (or 0.1 rad past a limit) under full drive;
-    # 2 dt (dt = 1/240 s) is the stiffest value MuJoCo accepts.
+    virtual_range: tuple[tuple[float, float], ...] = ((-2.0, 2.0), (-2.0, 2.0), (0.0, 2.0))
+    """the virtual x/y/z slides' ranges, m (design §1)"""
+    wrist_range_deg: tuple[float, float] = (-180.0, 180.0)
+    """the three wrist hinges' range, degrees"""
+    friction: float = 1.5
+    """sliding friction of hand geoms"""
     contact_timeconst: float = 0.0085
+    """Contact and finger joint-limit stiffness: solref time constant (s). MuJoCo's default 0.02 lets the light,
+    armature-dominated phalanges sink ~2 cm into a handle (or 0.1 rad past a limit) under full drive; 2 dt (dt = 1/240
+    s) is the stiffest value MuJoCo accepts."""
     rgba: tuple[float, float, float, float] = (0.85, 0.65, 0.5, 1.0)
+    """the hand's colour in pictures (red, green, blue, alpha in [0, 1])"""
 
     def __post_init__(self):
         if self.side not in ("right", "left"):

@@ -11,6 +11,8 @@ import contextlib
 import contextvars
 import dataclasses
 import io
+import re
+import textwrap
 import typing
 from typing import Annotated
 
@@ -25,8 +27,8 @@ from tyro.constructors import (
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.ppo.config import PPOConfig
-from dragmesh2_jax.runs.commands import parse_floats
-from dragmesh2_jax.runs.spec import RunSpec
+from dragmesh2_jax.runs.commands import flag_value, parse_floats
+from dragmesh2_jax.runs.spec import RunSpec, Schedule
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig
 
@@ -64,19 +66,16 @@ def one_damping(text: str) -> float:
     return value
 
 
-def flag_value(value) -> str:
-    """A value as a flag writes it: a tuple comma-separated, a bool in lower case."""
-    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value).lower() if isinstance(
-        value, bool) else str(value)
-
-
-
 # ------------------------------------------------------------- the configuration tree as flags, by tyro
 #: Fields of the tree that a command flag of its own sets (``--backend`` and ``--impl`` choose the engine for every
 #: command) or that no policy run sets (the effector is the parallel-jaw primitive's).
 NOT_FLAGS = {TaskConfig: ("backend", "impl"), SceneConfig: ("effector",)}
 #: Fields whose flag goes without its group's name: the batch, as ``reproduce`` and ``bench`` spell it.
 SHORT_FLAGS = {PPOConfig: ("num_envs",)}
+#: Fields whose flag has another name, spelled as every command spells it: the schedule's evaluation cells as
+#: ``--damping`` (evaluate, video, reproduce), its checkpoint rule apart from ``--checkpoint`` (a checkpoint, on every
+#: command that reads one).
+RENAMED = {Schedule: {"dampings": "damping", "checkpoint": "checkpoint_rule"}}
 #: A run's groups that are flags; the schedule's go without the group's name (``--epochs``, ``--seed``).
 GROUPS = ("schedule", "task", "scene", "ppo", "network")
 _NOT_SCHEDULE = tuple(f.name for f in dataclasses.fields(RunSpec) if f.name not in GROUPS)
@@ -91,6 +90,7 @@ def _tree_fields(info: StructTypeInfo) -> StructConstructorSpec | None:
     marks = {RunSpec: {**dict.fromkeys(_NOT_SCHEDULE, tyro.conf.Suppress), "schedule": tyro.conf.OmitArgPrefixes}}
     marks |= {cls: dict.fromkeys(names, tyro.conf.Suppress) for cls, names in NOT_FLAGS.items()}
     marks |= {cls: {n: tyro.conf.arg(name=n, prefix_name=False) for n in names} for cls, names in SHORT_FLAGS.items()}
+    marks |= {cls: {n: tyro.conf.arg(name=new) for n, new in names.items()} for cls, names in RENAMED.items()}
     if _inside.get() or info.type not in marks:
         return None
     token = _inside.set(True)  # tyro's own rule for the dataclass, then the marks on its fields
@@ -163,14 +163,45 @@ def print_tree_help(default: RunSpec, prog: str) -> None:
         _tyro(["--help"], default, prog)
 
 
+def tree_help(default: RunSpec, prog: str) -> str:
+    """What :func:`print_tree_help` prints, as text."""
+    said = io.StringIO()
+    with contextlib.redirect_stdout(said):
+        print_tree_help(default, prog)
+    return said.getvalue()
+
+
+#: A group's title and a flag's first line in tyro's help, with or without its frame (a terminal's, a pipe's).
+_GROUP, _FLAG = re.compile(r"^(\S+) options$"), re.compile(r"^(--[a-z0-9][a-z0-9.-]*)(\s|$)")
+
+
+def tree_flags(default: RunSpec, prog: str) -> dict[str, list[str]]:
+    """The configuration flags by group (``task.reward``, ...), as tyro generates them from ``default``'s tree."""
+    groups: dict[str, list[str]] = {}
+    group = ""
+    for line in tree_help(default, prog).splitlines():
+        line = line.strip(" │╭╮╰╯─")
+        if m := _GROUP.match(line):
+            group = m.group(1)
+        elif (m := _FLAG.match(line)) and group:
+            groups.setdefault(group, []).append(m.group(1))
+    return groups
+
+
+def tree_summary(default: RunSpec, prog: str, width: int = 100) -> str:
+    """The configuration flags in a few lines: each group's flag names (the whole help: ``--help-tree``)."""
+    lines = ["configuration flags, by group (--help-tree shows each one's help and its default):"]
+    for group, flags in tree_flags(default, prog).items():
+        prefix = f"--{group}."
+        names = " ".join(f[len(prefix):] if f.startswith(prefix) else f for f in flags)
+        title = f"  {prefix}NAME: " if any(f.startswith(prefix) for f in flags) else f"  {group}: "
+        lines += textwrap.wrap(names, width, initial_indent=title, subsequent_indent=" " * 6,
+                               break_on_hyphens=False, break_long_words=False)
+    return "\n".join(lines)
+
+
 def _first_line(report: str) -> str:
     """What tyro's boxed report says first: its message, without the frame."""
     lines = [ln.strip(" │╭╮╰╯─-") for ln in report.splitlines()]
     text = [ln for ln in lines if ln]
     return text[1] if len(text) > 1 else (text[0] if text else "bad flags")
-
-
-def tree_changes(spec: RunSpec, default: RunSpec) -> dict[str, dict]:
-    """Each group's fields whose value ``spec`` changes from ``default``: what the flags gave."""
-    return {g: {f.name: getattr(getattr(spec, g), f.name) for f in dataclasses.fields(getattr(spec, g))
-                if getattr(getattr(spec, g), f.name) != getattr(getattr(default, g), f.name)} for g in GROUPS}

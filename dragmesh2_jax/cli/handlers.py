@@ -18,7 +18,13 @@ from dragmesh2_jax.bench import (
     learning_curves,
     learning_regressions,
 )
-from dragmesh2_jax.cli.flags import flag_value, parse_dampings, parse_tree, print_tree_help, tree_changes
+from dragmesh2_jax.cli.flags import (
+    flag_value,
+    parse_dampings,
+    parse_tree,
+    print_tree_help,
+    tree_summary,
+)
 from dragmesh2_jax.demo import run_demo
 from dragmesh2_jax.errors import DragMeshError, NotSaved
 from dragmesh2_jax.evaluation.evaluate import envelope_figure, envelope_table, markdown_table
@@ -42,6 +48,7 @@ from dragmesh2_jax.runs.commands import (
     view_run,
 )
 from dragmesh2_jax.runs.generalist import GENERALIST, generalist_run, open_object
+from dragmesh2_jax.runs.presets import catalogue
 from dragmesh2_jax.runs.session import training_success
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.trajectory.dataset import build_dataset
@@ -143,7 +150,7 @@ def _counts(text: str, what: str) -> list[int]:
 
 
 def cmd_bench(args) -> int:
-    objects = args.object.split(",") if args.object else None
+    objects = args.objects
     rows = bench_env_sweep(objects, args.trajectory, [b.strip() for b in args.backend.split(",")],
                            _counts(args.num_envs, "--num-envs"), args.steps, args.mjx_steps,
                            tuple(i.strip() for i in args.impl.split(",")), report=_print_env_row)
@@ -168,7 +175,7 @@ def cmd_bench_soak(args) -> int:
 
 
 def cmd_bench_train(args) -> int:
-    objects = args.object.split(",") if args.object else None
+    objects = args.objects
     rows = bench_train_sweep(objects, args.method, args.backend, _counts(args.num_envs, "--num-envs"),
                              _counts(args.runs, "--runs"), args.epochs, args.impl, report=_print_train_row)
     if args.json:
@@ -217,6 +224,9 @@ def _read_json(path: str) -> dict:
 
 
 def cmd_train(args) -> int:
+    if args.list_methods:
+        print(catalogue())
+        return 0
     seeds = None
     if args.seeds is not None:
         seeds = parse_floats(args.seeds, "--seeds", minimum=0)
@@ -231,15 +241,18 @@ def cmd_train(args) -> int:
             raise DragMeshError(f"--generalist trains its own method over its own objects: drop {', '.join(given)}")
     method = GENERALIST if args.generalist else args.method
     default = train_defaults(args.out, method, args.resume, seeds)
+    if args.help_tree:
+        print_tree_help(default, TRAIN_PROG)
+        return 0
     if args.help:
         print(args.usage())
-        print_tree_help(default, TRAIN_PROG)
+        print(tree_summary(default, TRAIN_PROG))
         return 0
     if not args.out:
         raise DragMeshError(f"{TRAIN_PROG}: --out is required (the run folder)")
-    changes = tree_changes(parse_tree(args.rest, default, TRAIN_PROG), default)
+    tree = parse_tree(args.rest, default, TRAIN_PROG)
     if args.generalist:
-        program, logs = generalist_run(args.out, seeds, args.resume, args.backend, args.impl, changes,
+        program, logs = generalist_run(args.out, seeds, args.resume, args.backend, args.impl, tree,
                                        progress=not args.quiet, wandb=args.wandb, overwrite=args.overwrite)
         _print_trained(args.out, program, logs)
         return 0
@@ -251,11 +264,9 @@ def cmd_train(args) -> int:
         if args.dataset:
             more, trajs = dataset_objects(args.dataset)
             objects, trajectory = objects + more, trajectory + trajs
-    program, logs = train_run(
-        args.out, objects, trajectory, args.method, args.backend, args.impl, seeds, args.resume, holdout=args.holdout,
-        task_changes=changes["task"], scene_changes=changes["scene"], network_changes=changes["network"],
-        schedule_changes=changes["schedule"], progress=not args.quiet, wandb=args.wandb, overwrite=args.overwrite,
-        **changes["ppo"])
+    program, logs = train_run(args.out, objects, trajectory, args.method, tree, args.backend, args.impl, seeds,
+                              args.resume, progress=not args.quiet, wandb=args.wandb, holdout=args.holdout,
+                              overwrite=args.overwrite)
     _print_trained(args.out, program, logs)
     return 0
 
@@ -271,7 +282,7 @@ def _print_trained(out: str, program, logs) -> None:
 def cmd_open(args) -> int:
     out = args.out or f"open_{Path(args.object).name}"
     r = open_object(args.object, args.damping, out, args.checkpoint, args.episodes, _engine(args.backend),
-                    args.renderer, args.every)
+                    args.renderer, args.video_every)
     print(f"{Path(args.object).name} at x{r['damping']:g}: opened {r['successes']}/{r['episodes']}, "
           f"{r['steps_mean']:.0f} steps, wrist load p95 {r['wrist_load_peak_n']:.0f} N")
     where = f"  evaluation: {r['evaluation']}" if r["evaluation"] else ""
@@ -368,8 +379,8 @@ def cmd_demo(args) -> int:
 
 def cmd_video(args) -> int:
     dampings = _cells(args.damping, args.checkpoint)
-    path, used, ck = video_of_run(args.checkpoint, dampings, args.out, args.every, _engine(args.backend), args.impl,
-                                  args.renderer)
+    path, used, ck = video_of_run(args.checkpoint, dampings, args.out, args.video_every, _engine(args.backend),
+                                  args.impl, args.renderer)
     print(f"{path}: det policy of {ck} at damping {', '.join(f'x{d:g}' for d in dampings)} ({used} renderer)")
     return 0
 

@@ -29,13 +29,11 @@ from dragmesh2_jax.cli.handlers import (
 )
 from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES
 from dragmesh2_jax.evaluation.protocol import PAPER
-from dragmesh2_jax.policies.methods import METHODS, RECIPE_DAMPINGS, RECOMMENDED
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
-from dragmesh2_jax.ppo.finetune import FINETUNES
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
 from dragmesh2_jax.reproduce import CHECKPOINTS, GENERALIST_HOLDOUT, GENERALIST_OBJECTS, SCALING_OBJECTS, TABLES
-from dragmesh2_jax.runs.commands import DEFAULT_METHOD
 from dragmesh2_jax.runs.generalist import OPEN_EPISODES
+from dragmesh2_jax.runs.presets import DEFAULT_METHOD, FINETUNES, RECIPE_DAMPINGS, RECOMMENDED, offered
 from dragmesh2_jax.runs.spec import ROBUST_EVERY, SAVE_EVERY
 
 OVERWRITE_HELP = ("start again in a folder that holds a run's products: removes its run.json, trajectories, logs, "
@@ -130,8 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
     pbe = sub.add_parser("bench", help="benchmarks")
     bsub = pbe.add_subparsers(dest="bench_cmd", required=True)
     pbenv = bsub.add_parser("env", help="physics steps/s of the task per backend and batch size")
-    pbenv.add_argument("--object", help="object folder (default: the packaged drawer); several, comma-separated: one "
-                                        "batch mixing them (each world steps one), as training over several objects")
+    pbenv.add_argument("--objects", nargs="+", metavar="FOLDER",
+                       help="object folders (default: the packaged drawer); several: one batch mixing them (each world "
+                            "steps one), as training over several objects")
     pbenv.add_argument("--trajectory")
     pbenv.add_argument("--num-envs", default="1,16,64,256", help="batch sizes, comma-separated")
     pbenv.add_argument("--steps", type=POSITIVE, default=50, help="control steps per timed run")
@@ -142,8 +141,9 @@ def build_parser() -> argparse.ArgumentParser:
     pbenv.set_defaults(func=cmd_bench)
     pbtr = bsub.add_parser("train", help="PPO epochs/s, compile time and the paper's per-object budget; "
                                          "--runs N: N seeds as one vmapped program")
-    pbtr.add_argument("--object", help="object folder(s), comma-separated (default: the packaged drawer); a second "
-                                       "object of the same structure reuses the compiled program")
+    pbtr.add_argument("--objects", nargs="+", metavar="FOLDER",
+                      help="object folders (default: the packaged drawer); a second object of the same structure "
+                           "reuses the compiled program")
     pbtr.add_argument("--method", default="pica", help="the method preset trained")
     pbtr.add_argument("--num-envs", default="64", help="batch sizes, comma-separated")
     pbtr.add_argument("--runs", default="1", help="seeds trained as one program (comma-separated list of counts)")
@@ -177,9 +177,15 @@ def build_parser() -> argparse.ArgumentParser:
     ptr = sub.add_parser("train", help="train a policy with PPO", add_help=False,
                          description="the run's configuration flags follow the command's own, each with its default "
                                      "under --method (a resumed run: its recorded value)")
-    ptr.add_argument("-h", "--help", action="store_true", help="show this help message and exit")
-    ptr.add_argument("--method", help=f"default: {DEFAULT_METHOD} (a resumed run: its own) | recommended | "
-                                      + " | ".join(METHODS))
+    ptr.add_argument("-h", "--help", action="store_true", help="show this help (the configuration flags by name) "
+                                                               "and exit")
+    ptr.add_argument("--help-tree", action="store_true",
+                     help="show every configuration flag with its help and its default under --method, and exit")
+    ptr.add_argument("--method", help=f"default: recommended ({DEFAULT_METHOD}; a resumed run: its own) | "
+                                      + " | ".join(offered()) + " (--list-methods: every preset, with its status)")
+    ptr.add_argument("--list-methods", action="store_true",
+                     help="list every method and fine-tune preset (paper, recommended, generalist, experimental, "
+                          "superseded) with what it is and its evidence, and exit")
     ptr.add_argument("--generalist", action="store_true",
                      help="the project's generalist: the generalist method over procedural objects of every "
                           f"category ({sum(GENERALIST_MIX.values())}, built into OUT/objects; one per category held "
@@ -321,7 +327,7 @@ def build_parser() -> argparse.ArgumentParser:
     pop.add_argument("--checkpoint", default="generalist", help="the policy: the packaged generalist, or a run "
                                                                 "folder or checkpoint")
     pop.add_argument("--episodes", type=POSITIVE, default=OPEN_EPISODES, help="deterministic episodes")
-    pop.add_argument("--every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between video frames")
+    pop.add_argument("--video-every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between video frames")
     _add_renderer_arg(pop)
     pop.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
     pop.set_defaults(func=cmd_open)
@@ -332,8 +338,8 @@ def build_parser() -> argparse.ArgumentParser:
     pv.add_argument("--damping", help="damping multipliers, side by side (default: the run's method's cells, "
                                       f"the recipe's {_csv(RECIPE_DAMPINGS)}; else {_csv(PAPER.dampings)})")
     pv.add_argument("--out", default="policy.mp4", help=".mp4 (where mediapy and ffmpeg exist, else GIF) or .gif")
-    pv.add_argument("--every", type=POSITIVE, default=VIDEO_EVERY, help="control steps between frames (played in real "
-                                                                    "time: 2 is 30 frames a second)")
+    pv.add_argument("--video-every", type=POSITIVE, default=VIDEO_EVERY,
+                    help="control steps between frames (played in real time: 2 is 30 frames a second)")
     _add_renderer_arg(pv)
     _add_backend_args(pv)
     pv.set_defaults(func=cmd_video)

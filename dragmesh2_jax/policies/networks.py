@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import flax.linen as nn
 import jax
@@ -31,21 +32,29 @@ from dragmesh2_jax.policies.gla import GatedLinearAttention, TokenWindows
 from dragmesh2_jax.policies.init import TORCH_LINEAR_INIT, Dense
 from dragmesh2_jax.task.protocol import Obs
 
-ENCODERS = ("none", "flat", "gla", "gru", "transformer")
-CRITICS = ("shared", "privileged")
+Encoder = Literal["none", "flat", "gla", "gru", "transformer"]
+Critic = Literal["shared", "privileged"]
+ENCODERS, CRITICS = get_args(Encoder), get_args(Critic)
 
 
 @dataclass(frozen=True)
 class NetworkConfig:
     """The actor-critic: its temporal encoder, its critic and its sizes (paper Table 8; design §6)."""
 
-    encoder: str = "gla"  # the history's temporal encoder (ENCODERS; none: state-only)
-    critic: str = "shared"  # the value head's input (CRITICS): the actor's features, or privileged
-    state_sizes: tuple[int, ...] = (512, 512, 256)  # the state MLP
-    hist_dim: int = 128  # z_hist
-    heads: int = 4  # GLA / attention heads
-    log_std_init: float = -2.0  # the state-independent log std (std 0.135)
-    critic_sizes: tuple[int, ...] = (512, 256)  # the privileged critic's MLP
+    encoder: Encoder = "gla"
+    """the history's temporal encoder (none: state-only)"""
+    critic: Critic = "shared"
+    """the value head's input: the actor's features (shared), or privileged ones"""
+    state_sizes: tuple[int, ...] = (512, 512, 256)
+    """the state MLP"""
+    hist_dim: int = 128
+    """z_hist"""
+    heads: int = 4
+    """GLA / attention heads"""
+    log_std_init: float = -2.0
+    """the state-independent log std (std 0.135)"""
+    critic_sizes: tuple[int, ...] = (512, 256)
+    """the privileged critic's MLP"""
 
     def __post_init__(self):
         if self.encoder not in ENCODERS:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import jax.numpy as jnp
 
@@ -16,34 +17,54 @@ PAPER_EPOCHS = 150
 
 @dataclass(frozen=True)
 class PPOConfig:
-    num_envs: int = 64  # parallel worlds (Table 11)
-    rollout_len: int = 32  # control steps per world in one epoch's rollout (Table 11)
-    gamma: float = 0.99  # discount
-    gae_lambda: float = 0.95  # GAE's lambda
-    lr: float = 3e-4  # Adam's learning rate (Table 11)
-    lr_schedule: str = "fixed"  # "fixed" (paper Table 11) | "adaptive" (the reference's rl_games KL-adaptive)
-    kl_threshold: float = 0.008  # the adaptive schedule's KL target
-    clip_eps: float = 0.2  # PPO's ratio clip (and the value clip)
-    update_epochs: int = 5  # minibatch epochs per batch
-    num_minibatches: int = 1  # the reference's 2048-sample minibatch = the whole batch
-    value_coef: float = 1.0  # c_v (loss term 0.5 c_v (V - R)^2, clipped)
-    clip_value: bool = True  # the value prediction's change from the rollout's clipped to clip_eps
-    entropy_coef: float = 0.0  # entropy bonus (none in Table 11)
-    bounds_coef: float = 0.01  # c_b, actor bounds loss at |mu| > 1.1
-    # beyond the paper: c_s, the action mean's temporal smoothness loss c_s mean_i (mu_t,i - mu_(t-1),i)^2 over
-    # consecutive steps of an episode (CAPS's temporal term, Mysore et al. 2021), mu_(t-1) the rollout's; 0: none
+    num_envs: int = 64
+    """parallel worlds (Table 11)"""
+    rollout_len: int = 32
+    """control steps per world in one epoch's rollout (Table 11)"""
+    gamma: float = 0.99
+    """discount"""
+    gae_lambda: float = 0.95
+    """GAE's lambda"""
+    lr: float = 3e-4
+    """Adam's learning rate (Table 11)"""
+    lr_schedule: Literal["fixed", "adaptive"] = "fixed"
+    """fixed (paper Table 11), or adaptive (the reference's rl_games KL-adaptive)"""
+    kl_threshold: float = 0.008
+    """the adaptive schedule's KL target"""
+    clip_eps: float = 0.2
+    """PPO's ratio clip (and the value clip)"""
+    update_epochs: int = 5
+    """minibatch epochs per batch"""
+    num_minibatches: int = 1
+    """the reference's 2048-sample minibatch = the whole batch"""
+    value_coef: float = 1.0
+    """c_v (loss term 0.5 c_v (V - R)^2, clipped)"""
+    clip_value: bool = True
+    """the value prediction's change from the rollout's clipped to clip_eps"""
+    entropy_coef: float = 0.0
+    """entropy bonus (none in Table 11)"""
+    bounds_coef: float = 0.01
+    """c_b, actor bounds loss at |mu| > 1.1"""
     smooth_coef: float = 0.0
-    # beyond the paper: this share of the worlds (``mean_worlds`` of them, rounded up) acts on the policy's mean,
-    # without exploration noise: the deployed policy, on which the constraints' costs are counted (the evaluation
-    # reads it; the sampled actions pass a limit more often than their mean does); their steps train the critic, not
-    # the actor. 0: every world samples and the costs are counted on them all
+    """beyond the paper: c_s, the action mean's temporal smoothness loss c_s mean_i (mu_t,i - mu_(t-1),i)^2 over
+    consecutive steps of an episode (CAPS's temporal term, Mysore et al. 2021), mu_(t-1) the rollout's; 0: none"""
     mean_share: float = 0.0
-    aux_weight: float = 0.01  # w_aux after warm-up (Table 10); 0: no auxiliary loss
-    aux_warmup: tuple[int, int] = (10, 40)  # w_aux = 0 before the first epoch, linear to aux_weight by the second
-    aux_channel_weights: tuple[float, float, float, float] = (1.0, 1.0, 0.5, 0.5)  # the auxiliary loss per channel
-    max_grad_norm: float = 1.0  # global gradient-norm clip
-    normalize_obs: bool = True  # running mean/std of state and history tokens (Welford)
-    normalize_advantage: bool = True  # advantages to zero mean, unit std per minibatch
+    """beyond the paper: this share of the worlds (``mean_worlds`` of them, rounded up) acts on the policy's mean,
+    without exploration noise: the deployed policy, on which the constraints' costs are counted (the evaluation reads
+    it; the sampled actions pass a limit more often than their mean does); their steps train the critic, not the actor.
+    0: every world samples and the costs are counted on them all"""
+    aux_weight: float = 0.01
+    """w_aux after warm-up (Table 10); 0: no auxiliary loss"""
+    aux_warmup: tuple[int, int] = (10, 40)
+    """w_aux = 0 before the first epoch, linear to aux_weight by the second"""
+    aux_channel_weights: tuple[float, float, float, float] = (1.0, 1.0, 0.5, 0.5)
+    """the auxiliary loss per channel"""
+    max_grad_norm: float = 1.0
+    """global gradient-norm clip"""
+    normalize_obs: bool = True
+    """running mean/std of state and history tokens (Welford)"""
+    normalize_advantage: bool = True
+    """advantages to zero mean, unit std per minibatch"""
 
     def __post_init__(self):
         if min(self.num_envs, self.rollout_len, self.update_epochs, self.num_minibatches) < 1:

@@ -12,7 +12,6 @@ from pathlib import Path
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import MODES, PAPER, PAPER_DAMPINGS, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json
-from dragmesh2_jax.policies.methods import METHODS, RECOMMENDED
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.render import VIDEO_EVERY
 from dragmesh2_jax.reproduce.paper import (
@@ -33,6 +32,7 @@ from dragmesh2_jax.reproduce.paper import (
     TRAIN_LENGTHS,
 )
 from dragmesh2_jax.runs.commands import baseline_controllers
+from dragmesh2_jax.runs.presets import METHODS, RECOMMENDED
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.spec import method_defaults
 

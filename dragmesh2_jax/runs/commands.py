@@ -20,13 +20,13 @@ from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import os_error_line
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint
-from dragmesh2_jax.ppo.finetune import get_finetune
 from dragmesh2_jax.ppo.train import TrainProgram, TrainState, init_jit, seed_keys
 from dragmesh2_jax.render import render_policy_video, render_pose, render_trajectory_gif
 from dragmesh2_jax.runs.build import load_task, program_of
+from dragmesh2_jax.runs.presets import DEFAULT_METHOD, get_finetune
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import RESCHEDULABLE, start_or_resume
-from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, method_spec
+from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, on_objects
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import RESIZABLE, TaskConfig
 from dragmesh2_jax.task.env import contact_budget
@@ -92,7 +92,6 @@ def make_trajectory(object_dir: str, out: str, render: str | None = None, render
     return traj, (render_trajectory_gif(obj, traj, render, renderer=renderer) if render else None)
 
 
-DEFAULT_METHOD = "pica"  # what ``train`` trains when no --method is given
 
 
 def train_defaults(out: str | None, method: str | None, resume: bool, seeds: list[int] | None) -> RunSpec:
@@ -110,57 +109,63 @@ def run_dirs(out: str | Path, seeds: list[int] | None) -> list[RunDir]:
 
 
 def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str | None = None,
-              backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None, resume: bool = False,
-              task_changes: dict | None = None, scene_changes: dict | None = None,
-              network_changes: dict | None = None, schedule_changes: dict | None = None, progress: bool = True,
-              wandb: str | None = None, holdout: int | None = None, overwrite: bool = False,
-              **ppo) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
-    """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``), new or resumed from its
-    record (``resume``: a longer ``schedule_changes["epochs"]`` extends it, other checkpoint or robustness
-    intervals and buffer sizes (``TaskConfig.RESIZABLE``) revise it; a method, object or any other config value that
-    differs from the record is refused); ``object_dir`` a list: one policy over several objects, the last
-    ``holdout`` held aside for checkpoint selection; ``overwrite``: what the folders hold of earlier runs is removed
-    first. Returns (program, [(seed, log rows)])."""
+              tree: RunSpec | None = None, backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None,
+              resume: bool = False, progress: bool = True, wandb: str | None = None, holdout: int | None = None,
+              overwrite: bool = False) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
+    """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``) of ``tree``, the run's whole
+    configuration tree as the command's flags left it (``train_defaults``: the method's, or the recorded run's when
+    it resumes; None: the default method's), new or resumed from its record (``resume``: a longer schedule extends
+    it, other checkpoint or robustness intervals and buffer sizes (``TaskConfig.RESIZABLE``) revise it; a method,
+    object or any other config value that differs from the record is refused); ``object_dir`` a list: one policy
+    over several objects, the last ``holdout`` held aside for checkpoint selection; ``overwrite``: what the folders
+    hold of earlier runs is removed first. Returns (program, [(seed, log rows)])."""
     if seeds is not None and not seeds:
         raise DragMeshError("--seeds: no seeds given")
     runs = run_dirs(out, seeds)
-    schedule_changes = schedule_changes or {}
+    tree = tree or train_defaults(out, method, resume, seeds)
     if resume:
         if trajectory is not None:
             raise DragMeshError(f"{out}: --resume continues the run on the trajectories it keeps; drop --trajectory")
-        task_changes = task_changes or {}
-        _check_resume(runs, method, object_dir, ppo, {k: v for k, v in task_changes.items() if k not in RESIZABLE},
-                      scene_changes, network_changes,
-                      {k: v for k, v in schedule_changes.items() if k not in RESCHEDULABLE}, holdout)
-        given = None  # the recorded runs as they are, or under the schedule and buffer sizes the flags give
-        changed = ({f"schedule.{k}": v for k, v in schedule_changes.items() if k in RESCHEDULABLE}
-                   | {f"task.{k}": v for k, v in task_changes.items() if k in RESIZABLE and v is not None})
-        if changed and runs[0].exists():
-            given = apply_overrides(runs[0].spec(), changed)
-        program, _, logs = start_or_resume(given, runs, resume=True, backend=backend, impl=impl, progress=progress,
-                                           wandb=wandb, overwrite=overwrite)
+        if runs[0].exists():
+            _check_resume(runs[0], tree, method, object_dir, holdout)
+        program, _, logs = start_or_resume(tree if runs[0].exists() else None, runs, resume=True, backend=backend,
+                                           impl=impl, progress=progress, wandb=wandb, overwrite=overwrite)
         return program, [(r.spec().schedule.seed, rows) for r, rows in zip(runs, logs, strict=True)]
-    spec = method_spec(method or DEFAULT_METHOD, object_dir, ppo, task_changes, scene_changes, backend, impl,
-                       network_changes, holdout or 0, schedule_changes)
+    spec = on_objects(tree.on(backend, impl), object_dir, holdout or 0)
     program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, progress=progress, wandb=wandb,
                                        overwrite=overwrite)
     return program, list(zip(seeds or [spec.schedule.seed], logs, strict=True))
 
 
-def _check_resume(runs: list[RunDir], method: str | None, object_dir, ppo: dict, task: dict | None,
-                  scene: dict | None, network: dict | None, schedule: dict, holdout: int | None) -> None:
-    """A resume continues the recorded runs exactly: flags that would change one are refused, saying what differs."""
-    for run in runs:
-        if not run.exists():
-            continue  # start_or_resume says there is nothing to resume
-        spec = run.spec()
-        differ = spec.differences(method, object_dir, ppo=ppo, task=task, scene=scene, network=network,
-                                  schedule=schedule)
-        if holdout is not None and holdout != spec.holdout:
-            differ.append(f"holdout {holdout} (recorded {spec.holdout})")
-        if differ:
-            raise DragMeshError(f"{run.path}: --resume continues the recorded run exactly, but the flags change "
-                                f"{'; '.join(differ)}; drop them, or start a new run in another --out")
+#: What a resume may change of the recorded tree (``runs/session.py`` applies them): the schedule's length and
+#: intervals, and the buffer sizes.
+RESUMABLE = {f"schedule.{k}" for k in RESCHEDULABLE} | {f"task.{k}" for k in RESIZABLE}
+
+
+def _check_resume(run: RunDir, tree: RunSpec, method: str | None, object_dir, holdout: int | None) -> None:
+    """A resume continues the recorded run exactly: flags that would change it are refused, saying what differs."""
+    recorded = run.spec()
+    differ = recorded.differences(method, object_dir)
+    differ += [f"{k} {flag_value(v)} (recorded {flag_value(_at(recorded, k))})"
+               for k, v in tree.overrides(recorded).items() if k not in RESUMABLE]
+    if holdout is not None and holdout != recorded.holdout:
+        differ.append(f"holdout {holdout} (recorded {recorded.holdout})")
+    if differ:
+        raise DragMeshError(f"{run.path}: --resume continues the recorded run exactly, but the flags change "
+                            f"{'; '.join(differ)}; drop them, or start a new run in another --out")
+
+
+def _at(spec: RunSpec, path: str):
+    value = spec
+    for name in path.split("."):
+        value = getattr(value, name)
+    return value
+
+
+def flag_value(value) -> str:
+    """A value as a flag writes it: a tuple comma-separated, a bool in lower case."""
+    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value).lower() if isinstance(
+        value, bool) else str(value)
 
 
 def dataset_objects(folder: str | Path) -> tuple[list[str], list[str]]:

@@ -16,6 +16,7 @@ from dragmesh2_jax.ppo.train import TrainProgram
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
 from dragmesh2_jax.runs.commands import dataset_objects, evaluate_loaded, load_run, run_dirs, train_run
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, RunDir
+from dragmesh2_jax.runs.spec import RunSpec
 from dragmesh2_jax.trajectory.dataset import build_dataset
 from dragmesh2_jax.trajectory.schema import write_trajectory
 
@@ -35,20 +36,18 @@ def generalist_objects(out: str | Path, progress: bool = True) -> tuple[list[str
     return procedural.held_aside_by_category(*dataset_objects(folder))
 
 
-def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str, impl: str, changes: dict,
-                   progress: bool = True, wandb: str | None = None,
+def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str, impl: str,
+                   tree: RunSpec | None = None, progress: bool = True, wandb: str | None = None,
                    overwrite: bool = False) -> tuple[TrainProgram, list]:
     """``train --generalist``: the ``generalist`` method over its objects (``generalist_objects``), new or resumed;
-    ``changes``: each group's fields the command's flags changed (``cli.flags.tree_changes``)."""
+    ``tree``: its configuration tree as the command's flags left it (None: the method's, or the recorded run's)."""
     with RunDir(out).writing():  # its objects are built into OUT: by the one writer, and never into another run
         if not resume and not overwrite:
             for run in run_dirs(out, seeds):
                 run.require_new()
         objects, trajectories, holdout = generalist_objects(out, progress)
-        return train_run(out, objects, None if resume else trajectories, GENERALIST, backend, impl, seeds, resume,
-                         task_changes=changes["task"], scene_changes=changes["scene"],
-                         network_changes=changes["network"], schedule_changes=changes["schedule"], progress=progress,
-                         wandb=wandb, holdout=holdout, overwrite=overwrite, **changes["ppo"])
+        return train_run(out, objects, None if resume else trajectories, GENERALIST, tree, backend, impl, seeds,
+                         resume, progress=progress, wandb=wandb, holdout=holdout, overwrite=overwrite)
 
 
 def package_run(checkpoint: str, dest: str | Path, command: str) -> Path:

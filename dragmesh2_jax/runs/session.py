@@ -16,7 +16,14 @@ import sys
 import time
 
 import numpy as np
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 from tensorboardX import SummaryWriter
 
 from dragmesh2_jax.errors import DragMeshError
@@ -103,9 +110,13 @@ class _Progress:
     def __init__(self, name: str, total: int, done: int, enabled: bool):
         self.total = total
         self.bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                            TimeElapsedColumn(), TextColumn("{task.fields[stats]}"), disable=not enabled or to_log())
+                            TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(),
+                            TextColumn("{task.fields[stats]}"), disable=not enabled or to_log())
         self.task = self.bar.add_task(name, total=total, completed=done, stats="")
         self.lines = LogLines(name, total, done, every=max(1, total // 10), enabled=enabled)
+
+        if enabled and done < total:  # the first epoch waits for its program to compile: say so, not nothing
+            print(f"{name}: compiling the epoch program (the first epoch waits for it)", file=sys.stderr, flush=True)
 
     def update(self, epoch: int, stats: str) -> None:
         self.bar.update(self.task, completed=epoch, stats=stats)

@@ -8,26 +8,29 @@ fine-tunes are override sets, dotted paths into this tree (:func:`apply_override
 
 The record (``run.json``, format 4): ``format``, ``method``, ``object``, ``objects``, ``holdout``, ``finetune``,
 ``parent``, ``backend`` (the engine it trained on), ``buffers``, ``schedule``, ``ppo``, ``task``, ``scene``,
-``network`` and ``versions``. Formats 2 and 3 are read too: their ``ppo`` held the epochs and the seed (moved to the
-schedule); what they did not record (the network's encoder and critic, the schedule's checkpoint rule and evaluation
-cells, and in format 2 the network's sizes and the schedule's intervals) is the recorded method's.
+``network``, ``overrides`` (what the run changes of its method's tree, by dotted path: for people; the reader
+rebuilds the run from the sections) and ``versions``. Formats 2 and 3 are read too: their ``ppo`` held the epochs and
+the seed (moved to the schedule); what they did not record (the network's encoder and critic, the schedule's
+checkpoint rule and evaluation cells, and in format 2 the network's sizes and the schedule's intervals) is the
+recorded method's.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Literal, get_args
 
 from dragmesh2_jax.assets.procedural import default_objects_dir
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.io import object_hash
-from dragmesh2_jax.policies.methods import get_method, resolve
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
-from dragmesh2_jax.ppo.finetune import get_finetune
+from dragmesh2_jax.runs.presets import get_finetune, get_method, resolve
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict, versions
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig, apply_overrides
@@ -36,7 +39,8 @@ SAVE_EVERY = 10  # epochs between a run's checkpoints
 ROBUST_EVERY = 10  # epochs between the robustness checks that select best_robust (paper App. B.3)
 #: Which checkpoint stands for a run: ``best_robust``, the paper's selection by robustness during training (App.
 #: B.3-B.4; ``final`` where the run has none), or ``final``, its last epoch's.
-CHECKPOINT_RULES = ("best_robust", "final")
+CheckpointRule = Literal["best_robust", "final"]
+CHECKPOINT_RULES = get_args(CheckpointRule)
 RECORD_FORMAT = 4  # 4: the schedule whole, the network's encoder and critic; 3: the network's sizes; 2: neither
 READABLE_FORMATS = (2, 3, 4)
 RECORD_KEYS = ("method", "object", "ppo", "task")  # what every record must have
@@ -47,13 +51,20 @@ class Schedule:
     """How a run is driven around its compiled epochs (no program reads it): its length, its seed, when it saves and
     checks, and how it is read afterwards."""
 
-    epochs: int = PAPER_EPOCHS  # training epochs (one rollout + update each); a resume to more extends the run
-    seed: int = 42  # the run's seed: its parameters, worlds and sampled actions
-    save_every: int = SAVE_EVERY  # epochs between checkpoints (and the last epoch)
-    robust_every: int = ROBUST_EVERY  # epochs between robustness checks selecting best_robust (and the last); 0: none
-    robust_episodes: int = SELECTION.episodes  # episodes per damping of a check (a mix: a held-aside object each)
-    checkpoint: str = "best_robust"  # the checkpoint that stands for the run: one of CHECKPOINT_RULES
-    dampings: tuple[float, ...] | None = None  # the damping cells it is evaluated at by default; None: x1/x2/x4
+    epochs: int = PAPER_EPOCHS
+    """training epochs (one rollout + update each); a resume to more extends the run"""
+    seed: int = 42
+    """the run's seed: its parameters, worlds and sampled actions"""
+    save_every: int = SAVE_EVERY
+    """epochs between checkpoints (and the last epoch)"""
+    robust_every: int = ROBUST_EVERY
+    """epochs between robustness checks selecting best_robust (and the last); 0: none"""
+    robust_episodes: int = SELECTION.episodes
+    """episodes per damping of a check (a mix: a held-aside object each)"""
+    checkpoint: CheckpointRule = "best_robust"
+    """the checkpoint that stands for the run: the best of its robustness checks, or its last epoch's"""
+    dampings: tuple[float, ...] | None = None
+    """the damping cells it is evaluated at by default; None: x1/x2/x4"""
 
     def __post_init__(self):
         if self.epochs < 1 or self.save_every < 1 or self.robust_every < 0 or self.robust_episodes < 1:
@@ -73,16 +84,21 @@ SECTIONS = {"schedule": Schedule, "ppo": PPOConfig, "task": TaskConfig, "scene":
 @dataclass(frozen=True)
 class RunSpec:
     method: str
-    object: str  # the object folder
+    object: str
+    """the object folder"""
     ppo: PPOConfig = PPOConfig()
     task: TaskConfig = TaskConfig()
     scene: SceneConfig = SceneConfig()
     network: NetworkConfig = NetworkConfig()
     schedule: Schedule = Schedule()
-    finetune: str | None = None  # a fine-tune's recipe
-    parent: str | None = None  # the checkpoint a fine-tune continues
-    objects: tuple[str, ...] = ()  # a run over several objects: all of them, ``object`` first (empty: one object)
-    holdout: int = 0  # the last ``holdout`` of ``objects`` are held aside: best_robust is chosen on them
+    finetune: str | None = None
+    """a fine-tune's recipe"""
+    parent: str | None = None
+    """the checkpoint a fine-tune continues"""
+    objects: tuple[str, ...] = ()
+    """a run over several objects: all of them, ``object`` first (empty: one object)"""
+    holdout: int = 0
+    """the last ``holdout`` of ``objects`` are held aside: best_robust is chosen on them"""
 
     def __post_init__(self):
         if self.objects and self.objects[0] != self.object:
@@ -135,7 +151,24 @@ class RunSpec:
         return {"format": RECORD_FORMAT, "method": self.method, "object": str(Path(self.object).resolve()),
                 "objects": objects, "holdout": self.holdout,
                 "finetune": self.finetune, "parent": self.parent, "backend": backend, "buffers": buffers,
-                **self.sections(), "versions": versions()}
+                **self.sections(), "overrides": self._overrides_json(), "versions": versions()}
+
+    def _overrides_json(self) -> dict:
+        """What the run changes of its method's tree (``overrides``), as JSON: read by people, not by the reader,
+        which rebuilds the run from its sections."""
+        return json.loads(json.dumps(self.overrides(method_defaults(self.method)), default=dataclasses.asdict))
+
+    def overrides(self, base: RunSpec) -> dict[str, Any]:
+        """What this spec's configs change of ``base``'s, by dotted path to the deepest field that differs (a nested
+        config is compared field by field; an optional one set or unset is its whole value)."""
+        def diff(a, b, path: str) -> dict[str, Any]:
+            if a == b:
+                return {}
+            if dataclasses.is_dataclass(a) and type(a) is type(b):
+                return {k: v for f in dataclasses.fields(a)
+                        for k, v in diff(getattr(a, f.name), getattr(b, f.name), f"{path}.{f.name}").items()}
+            return {path: a}
+        return {k: v for g in SECTIONS for k, v in diff(getattr(self, g), getattr(base, g), g).items()}
 
     def sections(self) -> dict:
         """The record's config sections (``SECTIONS``) as JSON."""
@@ -214,21 +247,27 @@ def method_defaults(method: str) -> RunSpec:
 def method_spec(method: str, object_dir: str | list[str], ppo: dict | None = None, task: dict | None = None,
                 scene: dict | None = None, backend: str = "auto", impl: str = "jax",
                 network: dict | None = None, holdout: int = 0, schedule: dict | None = None) -> RunSpec:
-    """A new run of a method: the method's tree (:func:`method_defaults`; ``recommended`` recorded as the recipe it
-    stands for) with the command's changes on top, each a group's fields: ``task``, ``scene``, ``network``,
-    ``schedule`` and ``ppo`` (its None values are not given: no PPO field takes None). ``object_dir`` may be a list
-    of object folders: one policy over all of them, the last ``holdout`` held aside for checkpoint selection."""
+    """A new run of a method from Python: the method's tree (:func:`method_defaults`; ``recommended`` recorded as the
+    recipe it stands for) with changes on top, each a group's fields: ``task``, ``scene``, ``network``, ``schedule``
+    and ``ppo`` (its None values are not given: no PPO field takes None), on its objects (:func:`on_objects`). The
+    command line passes its parsed tree whole instead."""
+    given = {"task.backend": backend, "task.impl": impl,
+             **{f"ppo.{k}": v for k, v in (ppo or {}).items() if v is not None}}
+    for group, changes in (("task", task), ("scene", scene), ("network", network), ("schedule", schedule)):
+        given |= {f"{group}.{k}": v for k, v in (changes or {}).items()}
+    return on_objects(apply_overrides(method_defaults(method), given), object_dir, holdout)
+
+
+def on_objects(tree: RunSpec, object_dir: str | list[str] | None, holdout: int = 0) -> RunSpec:
+    """A run's tree on its object, or on several (a list: one policy over all of them, the last ``holdout`` held aside
+    for checkpoint selection)."""
     objects = [str(o) for o in object_dir] if isinstance(object_dir, list | tuple) else []
     object_dir = objects[0] if objects else object_dir
     if not object_dir:
         raise DragMeshError("no object folder given (--object)")
     if len(objects) == 1:
         objects = []
-    given = {"object": str(object_dir), "objects": tuple(objects), "holdout": holdout, "task.backend": backend,
-             "task.impl": impl, **{f"ppo.{k}": v for k, v in (ppo or {}).items() if v is not None}}
-    for group, changes in (("task", task), ("scene", scene), ("network", network), ("schedule", schedule)):
-        given |= {f"{group}.{k}": v for k, v in (changes or {}).items()}
-    spec = apply_overrides(method_defaults(method), given)
+    spec = apply_overrides(tree, {"object": str(object_dir), "objects": tuple(objects), "holdout": holdout})
     if spec.task.object_curriculum and len(spec.training_objects) < 2:
         raise DragMeshError("--task.object-curriculum draws among a run's training objects; this run trains on one")
     return spec

@@ -6,7 +6,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, get_args
 
 import jax
 
@@ -14,11 +14,18 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS
 from dragmesh2_jax.trajectory.schema import RHO
 
-BACKENDS = ("auto", "mjx", "mujoco")
+Backend = Literal["auto", "mjx", "mujoco"]
+BACKENDS = get_args(Backend)
 MAX_ALPHA = 1.0  # the largest action increment (m or rad per control step); the paper's is 0.05
-IMPLS = ("jax", "warp")
+Impl = Literal["jax", "warp"]
+IMPLS = get_args(Impl)
 #: s_t's kinds (task/observation.py): the paper's, and one in the handle's frame that transfers across objects.
-OBSERVATIONS = ("paper", "handle")
+Observation = Literal["paper", "handle"]
+OBSERVATIONS = get_args(Observation)
+
+
+#: ARAM's response tests (AramConfig.response).
+Response = Literal["raw", "normalized", "joint_aware"]
 
 
 @dataclass(frozen=True)
@@ -28,19 +35,25 @@ class AramConfig:
     while in contact (d < ``d_contact``) and ||a|| > ``action_norm``, r_aram = -lambda mean(a^2). lambda starts at
     0 and moves once per epoch by ``lr (clip099 - target)`` when the epoch's success exceeds ``success_gate``."""
 
-    response: str = "raw"  # "raw" (|dq| < raw_eps) | "normalized" (|dq| / (q_goal - q_start) < frac) | "joint_aware"
-    raw_eps: float = 0.005  # m or rad
-    frac: float = 0.01  # normalized threshold (the joint-aware config's)
+    response: Response = "raw"
+    """the response test: raw |dq| < raw_eps, normalized |dq| / (q_goal - q_start) < frac, or joint_aware"""
+    raw_eps: float = 0.005
+    """m or rad"""
+    frac: float = 0.01
+    """normalized threshold (the joint-aware config's)"""
     stall_steps: int = 5
-    d_contact: float = 0.10  # m
-    action_norm: float = 1.0  # ||a||_2
+    d_contact: float = 0.10
+    """m"""
+    action_norm: float = 1.0
+    """||a||_2"""
     lr: float = 0.005
-    target: float = 0.7  # clip099 the update steers towards
+    target: float = 0.7
+    """clip099 the update steers towards"""
     success_gate: float = 0.7
     lambda_max: float = 1.0
 
     def __post_init__(self):
-        if self.response not in ("raw", "normalized", "joint_aware"):
+        if self.response not in get_args(Response):
             raise DragMeshError(f"ARAM response must be raw, normalized or joint_aware, got {self.response!r}")
 
 
@@ -53,12 +66,17 @@ class ReconfigConfig:
     w_contact: float = 0.2
     w_response: float = 1.0
     w_slip: float = 0.5
-    stall_frac: float = 0.02  # |dq| / (q_goal - q_start) below this counts as a stall
-    d_contact: float = 0.10  # m
+    stall_frac: float = 0.02
+    """|dq| / (q_goal - q_start) below this counts as a stall"""
+    d_contact: float = 0.10
+    """m"""
     action_norm: float = 1.0
-    max_action_change: float = 4.0  # ||a_t - a_{t-1}||_2
-    max_hand_speed: float = 8.0  # ||hand qd||_2
-    cooldown: int = 10  # steps
+    max_action_change: float = 4.0
+    """||a_t - a_{t-1}||_2"""
+    max_hand_speed: float = 8.0
+    """||hand qd||_2"""
+    cooldown: int = 10
+    """steps"""
 
 
 #: What a constraint bounds, per control step: the wrist's pull |F_wrist| (N) or the same in units of the expert drag's
@@ -70,22 +88,26 @@ class ReconfigConfig:
 #: an active DoF in every step: RESULTS.md §3b), the deepest hand-object penetration (m) and how far the applied action
 #: moved since the last step, mean |a_t - a_(t-1)| over the 51 channels (action units, 0 at an episode's first step; the
 #: evaluation's ``action_smoothness`` per step).
-MEASURES = ("load", "relative_load", "lag", "lead", "palm_speed", "saturation", "wrist_saturation", "penetration",
-            "action_change")
+Measure = Literal["load", "relative_load", "lag", "lead", "palm_speed", "saturation", "wrist_saturation", "penetration",
+                  "action_change"]
+MEASURES = get_args(Measure)
 #: The unit of ``relative_load``: the expert drag's peak wrist load at the world's damping, replayed from its exact
 #: grasp (``grasp``) or from the reset bank's start the world's episode began at (``start``: a start from which the
 #: expert itself pulls harder is held to what the expert pulls there, so the residual's zero keeps the bound).
-EXPERT_UNITS = ("grasp", "start")
+ExpertUnit = Literal["grasp", "start"]
+EXPERT_UNITS = get_args(ExpertUnit)
 #: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
 #: grasp and the wrist's rotation keep the policy's whole range).
-RESIDUAL_SCOPES = ("hand", "translation")
+ResidualScope = Literal["hand", "translation"]
+RESIDUAL_SCOPES = get_args(ResidualScope)
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit), ``peak``
 #: 1[max_{s<=t} x_s > limit] (the episode's running peak past it, so E[c_t] is the share of steps after an episode
 #: first passed the limit: a bound on the episode's peak, which a rate leaves free for a step or two), ``horizon`` the
 #: peak's cost charged to the episode's horizon: an episode that succeeds after passing the limit also pays, in r_t, the
 #: T - t steps it had left (as it would have going on), so that a pass then a quick finish does not dodge the bound.
-COSTS = ("excess", "rate", "peak", "horizon")
+Cost = Literal["excess", "rate", "peak", "horizon"]
+COSTS = get_args(Cost)
 #: The costs that remember the episode's first pass (the env keeps it; a privileged critic sees it).
 PEAK_COSTS = ("peak", "horizon")
 
@@ -95,7 +117,8 @@ PEAK_COSTS = ("peak", "horizon")
 #: task's scale however large the multipliers grow, with a detached episode charged as past every limit for each
 #: step it had left: ending an episode never dodges the costs its remaining steps would pay (with the plain form a
 #: policy whose multipliers outgrew what it could yet meet learnt to detach at once: RESULTS.md §3b).
-LAGRANGIANS = ("plain", "normalized")
+Lagrangian = Literal["plain", "normalized"]
+LAGRANGIANS = get_args(Lagrangian)
 
 
 @dataclass(frozen=True)
@@ -107,12 +130,18 @@ class Constraint:
     says how the penalty enters r_t). The defaults are the wrist load of ``hold_cmdp``: the pull beyond what the grasp
     holds (RewardConfig.f_hold)."""
 
-    measure: str = "load"  # one of MEASURES
-    limit: float = 100.0  # in the measure's units (N, progress, m/s, action units, m)
-    cost: str = "excess"  # one of COSTS
-    budget: float = 0.01  # allowed mean cost per step
-    lr: float = 50.0  # lambda per unit of mean cost over budget, per epoch
-    lambda_max: float = 20.0  # a bound that keeps the multiplier finite; a budget met leaves it below
+    measure: Measure = "load"
+    """what the constraint bounds, per control step (MEASURES' comment says each one's unit)"""
+    limit: float = 100.0
+    """in the measure's units (N, progress, m/s, action units, m)"""
+    cost: Cost = "excess"
+    """how a step's measure becomes its cost (COSTS' comment)"""
+    budget: float = 0.01
+    """allowed mean cost per step"""
+    lr: float = 50.0
+    """lambda per unit of mean cost over budget, per epoch"""
+    lambda_max: float = 20.0
+    """a bound that keeps the multiplier finite; a budget met leaves it below"""
 
     def __post_init__(self):
         if self.measure not in MEASURES or self.cost not in COSTS:
@@ -131,25 +160,41 @@ class RewardConfig:
     Each term has a weight; a weight of 0 switches the term off (the "w/o PICA" variant sets w_bound and
     w_contact to 0)."""
 
-    w_task: float = 250.0  # per m or rad of target-joint progress
-    w_dist: float = 0.25  # linear palm-handle distance penalty (per m)
-    w_near: float = 0.10  # near-distance bonus, w_near exp(-kappa d)
-    kappa: float = 5.0  # 1/m, the near bonus's decay
-    w_act: float = 0.002  # action energy, mean(a^2)
-    w_time: float = 0.05  # per step
-    r_detach: float = -50.0  # one-shot, on detachment failure
-    r_success: float = 100.0  # one-shot, on reaching q_done
-    w_bound: float = 20.0  # PICA: mean(max(|a| - a_sat, 0)^2)
-    a_sat: float = 0.90  # PICA: |a| above this pays the bound penalty
-    w_contact: float = 0.5  # PICA: max(d - d_safe, 0)^2
-    d_safe: float = 0.08  # m
-    # Beyond the paper: a load budget. Scripted pulls (RESULTS.md, failure analysis) show the grip fails once the
-    # arm's pulling load passes ~100-120 N, whatever the speed or damping: -w_load max(0, |F| - f_hold) / f_hold.
-    w_load: float = 0.0  # off in the paper's methods
-    f_hold: float = 100.0  # N, wrist force the grasp holds (measured on the tuning door)
-    constraints: tuple[Constraint, ...] = ()  # CMDP constraints, one per measure (none in the paper's methods)
-    lagrangian: str = "plain"  # how the constraints enter r_t: one of LAGRANGIANS
-    aram: AramConfig | None = None  # diagnostic fine-tunes (paper App. B.5): off in the main recipe
+    w_task: float = 250.0
+    """per m or rad of target-joint progress"""
+    w_dist: float = 0.25
+    """linear palm-handle distance penalty (per m)"""
+    w_near: float = 0.10
+    """near-distance bonus, w_near exp(-kappa d)"""
+    kappa: float = 5.0
+    """1/m, the near bonus's decay"""
+    w_act: float = 0.002
+    """action energy, mean(a^2)"""
+    w_time: float = 0.05
+    """per step"""
+    r_detach: float = -50.0
+    """one-shot, on detachment failure"""
+    r_success: float = 100.0
+    """one-shot, on reaching q_done"""
+    w_bound: float = 20.0
+    """PICA: mean(max(|a| - a_sat, 0)^2)"""
+    a_sat: float = 0.90
+    """PICA: |a| above this pays the bound penalty"""
+    w_contact: float = 0.5
+    """PICA: max(d - d_safe, 0)^2"""
+    d_safe: float = 0.08
+    """m: the palm-handle distance past which PICA's contact penalty starts"""
+    w_load: float = 0.0
+    """beyond the paper, a load budget: -w_load max(0, |F| - f_hold) / f_hold (scripted pulls show the grip fails once
+    the arm's pull passes ~100-120 N, whatever the speed or damping); 0, off, in the paper's methods"""
+    f_hold: float = 100.0
+    """N, wrist force the grasp holds (measured on the tuning door)"""
+    constraints: tuple[Constraint, ...] = ()
+    """CMDP constraints, one per measure (none in the paper's methods)"""
+    lagrangian: Lagrangian = "plain"
+    """how the constraints enter r_t (LAGRANGIANS' comment)"""
+    aram: AramConfig | None = None
+    """diagnostic fine-tunes (paper App. B.5): off in the main recipe"""
     reconfig: ReconfigConfig | None = None
 
     @staticmethod
@@ -177,12 +222,18 @@ class ResetNoise:
     exact one; each reset picks one at random. Normal noise is truncated at 2 standard deviations, so every
     start is within 2 sigma of the expert grasp; the object joint only opens (it starts at its closed limit)."""
 
-    wrist_pos: float = 0.003  # m, std per virtual slide
-    wrist_rot: float = 0.02  # rad, std per wrist hinge
-    fingers: float = 0.05  # rad, std per active finger joint (the 24 locked axes stay)
-    object_q: float = 0.05  # the object starts up to this fraction of (q_done - q_start) open, uniform
-    bank: int = 32  # perturbed starts
-    seed: int = 0  # seed of the perturbed starts' bank
+    wrist_pos: float = 0.003
+    """m, std per virtual slide"""
+    wrist_rot: float = 0.02
+    """rad, std per wrist hinge"""
+    fingers: float = 0.05
+    """rad, std per active finger joint (the 24 locked axes stay)"""
+    object_q: float = 0.05
+    """the object starts up to this fraction of (q_done - q_start) open, uniform"""
+    bank: int = 32
+    """perturbed starts"""
+    seed: int = 0
+    """seed of the perturbed starts' bank"""
 
     def __post_init__(self):
         if min(self.wrist_pos, self.wrist_rot, self.fingers, self.object_q) < 0 or self.object_q >= 1:
@@ -200,39 +251,55 @@ RESIZABLE = ("contacts", "nthread")
 class TaskConfig:
     """The contact-driven pulling task (paper §3.1, Appendix A.1-A.2)."""
 
-    alpha: float = 0.05  # action-to-PD-target increment (m or rad per step)
-    control_dt: float = 1.0 / 60.0  # s: 60 Hz control, as the reference (no decimation)
-    episode_length: int = 300  # T_max (a truncation, not a failure)
-    history_len: int = 16  # L
-    aux_window: int = 5  # K
-    rho: float = RHO  # success threshold: q_done = q_min + rho (q_max - q_min) over the trajectory
-    d_detach: float = 0.10  # m
-    settle_substeps: int = RESET_SETTLE_SUBSTEPS  # physics steps from rest after writing the start (design §4)
-    damping_range: tuple[float, float] = (1.0, 2.0)  # x nominal, sampled per reset (an evaluation cell fixes its
-    # own: ``PullTask.reset(key, damping_scale)``)
-    friction_range: tuple[float, float] | None = None  # object friction scale; off by default
-    reset_noise: ResetNoise | None = None  # None: the paper's exact expert-grasp reset
-    force_obs: bool = False  # beyond the paper: contact-load sensors in s_t and in every history token
-    observation: str = "paper"  # s_t: one of OBSERVATIONS ("handle": transfers across objects, issue 36)
-    backend: str = "auto"  # "mjx" | "mujoco" | "auto" (MJX on an accelerator, the C engine on a CPU)
-    impl: str = "jax"  # MJX implementation: "jax" | "warp"
-    contacts: int | None = None  # MJX contact slots per world (None: sized from a probe, physics/contacts.py)
-    nthread: int | None = None  # C backend threads (default: all cores)
-    # beyond the paper, for an object mix: the share of resets drawn towards the objects the policy fails (each
-    # object weighed by 1 - its success, tracked per epoch; task/mix.py), the rest uniform; 0: every reset uniform
+    alpha: float = 0.05
+    """action-to-PD-target increment (m or rad per step)"""
+    control_dt: float = 1.0 / 60.0
+    """s: 60 Hz control, as the reference (no decimation)"""
+    episode_length: int = 300
+    """T_max (a truncation, not a failure)"""
+    history_len: int = 16
+    """L"""
+    aux_window: int = 5
+    """K"""
+    rho: float = RHO
+    """success threshold: q_done = q_min + rho (q_max - q_min) over the trajectory"""
+    d_detach: float = 0.10
+    """m: the palm farther than this from the handle ends the episode as a detachment"""
+    settle_substeps: int = RESET_SETTLE_SUBSTEPS
+    """physics steps from rest after writing the start (design §4)"""
+    damping_range: tuple[float, float] = (1.0, 2.0)
+    """the target joint's damping, x nominal, sampled per reset (an evaluation cell fixes its own)"""
+    friction_range: tuple[float, float] | None = None
+    """the object's friction scale, sampled per reset; None: off"""
+    reset_noise: ResetNoise | None = None
+    """None: the paper's exact expert-grasp reset"""
+    force_obs: bool = False
+    """beyond the paper: contact-load sensors in s_t and in every history token"""
+    observation: Observation = "paper"
+    """s_t: the paper's, or handle (in the handle's frame: transfers across objects)"""
+    backend: Backend = "auto"
+    """the engine: auto is MJX on an accelerator, the C engine (mujoco) on a CPU"""
+    impl: Impl = "jax"
+    """MJX's implementation"""
+    contacts: int | None = None
+    """MJX contact slots per world (None: sized from a probe, physics/contacts.py)"""
+    nthread: int | None = None
+    """C backend threads (default: all cores)"""
     object_curriculum: float = 0.0
-    # beyond the paper, residual learning over the expert drag: the applied action is the policy's plus the one that
-    # moves the hand to the drag's target for this step at its own pace (the tracking_delta baseline's action), both
-    # clipped to [-1, 1]; a policy that outputs zeros replays the expert (the hand only: the drag is the hand's)
+    """beyond the paper, for an object mix: the share of resets drawn towards the objects the policy fails (each object
+    weighed by 1 - its success, tracked per epoch; task/mix.py), the rest uniform; 0: every reset uniform"""
     expert_prior: bool = False
-    # beyond the paper, under expert_prior: the policy's action scaled by this before it adds to the expert's, so
-    # that its full range moves the hand's target residual_scale x alpha from the drag's (with the wrist's stiffness,
-    # the force a residual can add; its exploration noise scaled alike); 1: the policy's whole action range
+    """beyond the paper, residual learning over the expert drag: the applied action is the policy's plus the one that
+    moves the hand to the drag's target for this step at its own pace (the tracking_delta baseline's action), both
+    clipped to [-1, 1]; a policy that outputs zeros replays the expert (the hand only: the drag is the hand's)"""
     residual_scale: float = 1.0
-    # beyond the paper, the channels residual_scale narrows: one of RESIDUAL_SCOPES
-    residual_scope: str = "hand"
-    # beyond the paper, the unit of the relative_load measure: one of EXPERT_UNITS (task/expert.py)
-    expert_load_unit: str = "grasp"
+    """beyond the paper, under expert_prior: the policy's action scaled by this before it adds to the expert's, so that
+    its full range moves the hand's target residual_scale x alpha from the drag's (with the wrist's stiffness, the force
+    a residual can add; its exploration noise scaled alike); 1: the policy's whole action range"""
+    residual_scope: ResidualScope = "hand"
+    """beyond the paper, the channels residual_scale narrows (RESIDUAL_SCOPES' comment)"""
+    expert_load_unit: ExpertUnit = "grasp"
+    """beyond the paper, the unit of the relative_load measure (EXPERT_UNITS' comment)"""
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @staticmethod

@@ -19,9 +19,9 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import track
 from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.evaluation.rollout import rollout
-from dragmesh2_jax.policies.methods import RECOMMENDED
 from dragmesh2_jax.ppo.train import epoch_jit, epoch_runs, init_jit, init_runs, make_train, policy_params, seed_keys
 from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.runs.presets import RECOMMENDED
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.scene import SceneConfig, build_scene
@@ -160,7 +160,7 @@ import jax.numpy as jnp
 
 from dragmesh2_jax.cli import main
 
-assert main(["bench", "env", "--backend", "mjx", "--object", "/nonexistent/object"]) == 2  # past the CLI's start
+assert main(["bench", "env", "--backend", "mjx", "--objects", "/nonexistent/object"]) == 2  # past the CLI's start
 m = jax.random.normal(jax.random.PRNGKey(0), (64, 128, 128))
 spd = m @ jnp.swapaxes(m, -1, -2) + 128 * jnp.eye(128)
 both = jax.jit(lambda x, y: jnp.linalg.cholesky(x).sum() + jnp.linalg.cholesky(y).sum())

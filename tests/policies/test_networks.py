@@ -13,7 +13,6 @@ import pytest
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.policies.gla import GatedLinearAttention, TokenWindows, gla_last, gla_recurrent
-from dragmesh2_jax.policies.methods import METHODS, NO_PHYSICAL_SIGNALS, get_method
 from dragmesh2_jax.policies.networks import (
     ENCODERS,
     MLP,
@@ -23,6 +22,7 @@ from dragmesh2_jax.policies.networks import (
     make_inference_fn,
 )
 from dragmesh2_jax.ppo import train as train_lib
+from dragmesh2_jax.runs.presets import METHODS, NO_PHYSICAL_SIGNALS, get_method
 from dragmesh2_jax.task.protocol import Obs
 
 

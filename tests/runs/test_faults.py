@@ -27,9 +27,9 @@ from tests.test_io import hold_lock, release
 pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # its trained run is built once, beside the others
 
 dragmesh2 = installed_command()
-TINY = ["--epochs", "2", "--num-envs", "4", "--ppo.rollout-len", "8", "--backend", "mujoco", "--quiet",
-        "--robust-every", "0", "--network.state-sizes", "64,64", "--network.hist-dim", "32", "--network.heads", "2",
-        "--network.critic-sizes", "64"]
+TINY = ["--method", "pica", "--epochs", "2", "--num-envs", "4", "--ppo.rollout-len", "8", "--backend", "mujoco",
+        "--quiet", "--robust-every", "0", "--network.state-sizes", "64,64", "--network.hist-dim", "32",
+        "--network.heads", "2", "--network.critic-sizes", "64"]
 
 
 def train(out, *more) -> int:
@@ -269,7 +269,7 @@ def test_open_keeps_its_result_when_the_run_folder_cannot_take_the_evaluation(ru
     stderr line says so. A run folder that can take it gets it, and open says where."""
     def open_(out) -> int:
         return dragmesh2(["open", "--checkpoint", str(run), "--object", str(default_object()), "--out", str(out),
-                          "--episodes", "1", "--every", "100", "--renderer", "matplotlib", "--backend", "mujoco"])
+                          "--episodes", "1", "--video-every", "100", "--renderer", "matplotlib", "--backend", "mujoco"])
 
     def kept(out, fragment: str) -> None:
         report = json.loads((out / "report.json").read_text())

@@ -19,11 +19,11 @@ from dragmesh2_jax.assets.procedural import (
     packaged_object,
 )
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
-from dragmesh2_jax.policies.methods import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, GENERALIST_ROBUST_EPISODES
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import policy_params
 from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
 from dragmesh2_jax.runs.generalist import GENERALIST, OPEN_EPISODES, package_run
+from dragmesh2_jax.runs.presets import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, GENERALIST_ROBUST_EPISODES
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED, RunDir
 from dragmesh2_jax.runs.spec import method_defaults
 from dragmesh2_jax.task.mix import CURRICULUM_PRIOR, CURRICULUM_RATE
@@ -145,8 +145,8 @@ def test_checkpoint_generalist_in_evaluate_video_and_finetune(packaged, tmp_path
     assert cell["episodes"] == 2 and "not written" in out.err
     assert not list(packaged.glob("evaluations")) and not (packaged / ".lock").exists()  # never written
     video = tmp_path / "g.gif"
-    assert dragmesh2(["video", "--checkpoint", "generalist", "--damping", "1", "--out", str(video), "--every", "100",
-                      "--renderer", "matplotlib", "--backend", "mujoco"]) == 0
+    assert dragmesh2(["video", "--checkpoint", "generalist", "--damping", "1", "--out", str(video), "--video-every",
+                      "100", "--renderer", "matplotlib", "--backend", "mujoco"]) == 0
     assert video.is_file()
     assert dragmesh2(["finetune", "--checkpoint", "generalist", "--recipe", "continued", "--out", str(tmp_path / "ft"),
                       "--epochs", "1", "--robust-every", "0", "--seed", "7", "--backend", "mujoco", "--quiet"]) == 0
@@ -157,7 +157,7 @@ def test_checkpoint_generalist_in_evaluate_video_and_finetune(packaged, tmp_path
 def test_open_writes_a_report_a_video_and_a_still(packaged, tmp_path, capsys):
     out = tmp_path / "open"
     assert dragmesh2(["open", "--object", str(default_object()), "--damping", "2", "--out", str(out), "--episodes",
-                      "2", "--every", "100", "--renderer", "matplotlib", "--backend", "mujoco"]) == 0
+                      "2", "--video-every", "100", "--renderer", "matplotlib", "--backend", "mujoco"]) == 0
     report = json.loads((out / "report.json").read_text())
     assert report["damping"] == 2.0 and report["episodes"] == 2 and report["method"] == GENERALIST
     assert 0 <= report["success_rate"] <= 1 and report["wrist_load_peak_n"] >= 0
