@@ -16,8 +16,8 @@ import numpy as np
 from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
-from dragmesh2_jax.policies.methods import RECIPE_DAMPINGS
 from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
 
 COLUMNS = (("success_rate", "success", "{:.2f}"), ("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"),
            ("palm_speed_peak_m_s", "palm p95 [m/s]", "{:.2f}"), ("steps_mean", "steps", "{:.0f}"),
