@@ -122,7 +122,7 @@ class HandConfig:
     wrist: DriveGains = DriveGains(kp=100.0, kv=2.5, force_limit=50.0, armature=0.01)
     finger: DriveGains = DriveGains(kp=30.0, kv=0.5, force_limit=1.0, armature=0.002)
     virtual_range: tuple[tuple[float, float], ...] = ((-2.0, 2.0), (-2.0, 2.0), (0.0, 2.0))
-    """the virtual x/y/z slides' ranges, m (design §1)"""
+    """m, x/y/z slides"""
     wrist_range_deg: tuple[float, float] = (-180.0, 180.0)
     """the three wrist hinges' range, degrees"""
     friction: float = 1.5

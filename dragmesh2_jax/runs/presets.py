@@ -146,8 +146,8 @@ class Method:
     name: str
     description: str
     overrides: Mapping[str, Any]  # dotted path into a run's spec -> value (runs/spec.apply_overrides)
-    status: str  # one of STATUSES
-    evidence: str  # where its result is (RESULTS.md, results/archive.md) or why there is none
+    status: str = "experimental"  # one of STATUSES: a new method is experimental until its evidence says otherwise
+    evidence: str = ""  # where its result is (RESULTS.md, results/archive.md) or why there is none
 
 
 METHODS = {m.name: m for m in (

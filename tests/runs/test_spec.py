@@ -22,7 +22,7 @@ from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.commands import load_run, on_object
-from dragmesh2_jax.runs.presets import METHODS, RECIPE_DAMPINGS, RECOMMENDED, Method, get_method
+from dragmesh2_jax.runs.presets import FINETUNES, METHODS, RECIPE_DAMPINGS, RECOMMENDED, Method, catalogue, get_method
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
@@ -39,7 +39,7 @@ from dragmesh2_jax.runs.spec import (
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import AramConfig, ResetNoise, RewardConfig, TaskConfig
 from tests.conftest import TINY_NET, installed_command, tiny_spec
-from tests.test_cli import flag_of, train_parser, tree_help
+from tests.test_cli import flag_of, tree_help
 
 dragmesh2 = installed_command()
 
@@ -221,7 +221,7 @@ def test_a_new_method_is_one_entry_that_reaches_the_record_and_the_command_line(
     record = json.loads(json.dumps(spec.record("mujoco")))
     assert record["method"] == "pica_wide" and record["network"]["hist_dim"] == 48 and record["task"]["alpha"] == 0.04
     assert RunSpec.from_record(record) == dataclasses.replace(spec, object=str(Path(spec.object).resolve()))
-    assert "pica_wide" in train_parser().format_help()
+    assert "pica_wide" in catalogue() and "experimental" in catalogue().splitlines()[-len(FINETUNES) - 1]
     # the command line takes it: a recorded run of it resumes by its name, refusing only what differs
     run = RunDir(tmp_path / "run")
     atomic_write_json(run.record_path, record)
@@ -297,7 +297,7 @@ def test_a_format_3_record_reads_its_epochs_and_seed_into_the_schedule_and_the_n
     # a resume that extends it writes the record in the current format
     run = RunDir(tmp_path / "run")
     atomic_write_json(run.record_path, _format_3(RECOMMENDED))
-    run.revise(dataclasses.replace(recipe.schedule, epochs=200))
+    run.revise(dataclasses.replace(recipe, schedule=dataclasses.replace(recipe.schedule, epochs=200)))
     record = run.record()
     assert record["format"] == RECORD_FORMAT and "epochs" not in record["ppo"] and record["schedule"]["epochs"] == 200
     assert record["network"]["critic"] == "privileged" and record["versions"] == {"python": "3.11"}
