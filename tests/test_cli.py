@@ -22,6 +22,7 @@ from dragmesh2_jax.runs.commands import train_defaults
 from dragmesh2_jax.runs.presets import DEFAULT_METHOD, FINETUNES, METHODS, OFFERED, RECOMMENDED, STATUSES
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.spec import RunSpec, method_defaults, on_objects
+from dragmesh2_jax.task.config import AramConfig, Constraint, ResetNoise
 from tests.conftest import installed_command
 
 dragmesh2 = installed_command()
@@ -145,7 +146,8 @@ FLAG_VALUES = {
              "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0),
              "friction_range": (0.8, 1.2), "force_obs": True, "observation": "handle",
              "nthread": 1, "contacts": 48, "object_curriculum": 0.5, "expert_prior": True,
-             "expert_load_unit": "start", "residual_scale": 0.5, "residual_scope": "translation"},
+             "expert_load_unit": "start", "residual_scale": 0.5, "residual_scope": "translation",
+             "reset_noise": ResetNoise(wrist_pos=0.004, bank=8)},
     "scene": {"scale": 0.45, "object_pos": (0.55, 0.0, 0.6), "timestep": 1 / 120, "damping": 20.0, "armature": 0.01,
               "link_areal_density": 4.0, "friction": 1.2, "collide": "all", "collision_radius": 0.3,
               "gravity": False, "solver_iterations": 5, "ls_iterations": 6},
@@ -169,10 +171,16 @@ def flag_of(path: str) -> str:
     return "--" + (rest if short else f"{group}.{rest}").replace("_", "-")
 
 
-def _flag(value) -> str:
-    if isinstance(value, tuple):
-        return ",".join(str(v) for v in value)
-    return str(value).lower() if isinstance(value, bool) else str(value)
+def flag_args(path: str, value) -> list[str]:
+    """A field's flag with this value: a boolean as ``--flag`` or ``--no-flag``, an optional config as its changed
+    fields (``KEY=VALUE,...``), a tuple comma-separated."""
+    flag = flag_of(path)
+    if isinstance(value, bool):
+        head, _, name = flag.rpartition(".")
+        return [flag if value else (f"{head}.no-{name}" if head else f"--no-{name[2:]}")]
+    if dataclasses.is_dataclass(value):
+        return [flag, ",".join(f"{f.name}={getattr(value, f.name)}" for f in dataclasses.fields(value))]
+    return [flag, ",".join(str(v) for v in value) if isinstance(value, tuple) else str(value)]
 
 
 def tree_help(default: RunSpec) -> dict[str, str]:
@@ -198,7 +206,7 @@ def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and
     objects = [str(default_object()), str(packaged_object("door_cabinet_0000"))]
     argv = ["train", "--objects", *objects, "--out", "x"]
     for prefix, values in FLAG_VALUES.items():
-        argv += [a for f, v in values.items() for a in (flag_of(f"{prefix}.{f}"), _flag(v))]
+        argv += [a for f, v in values.items() for a in flag_args(f"{prefix}.{f}", v)]
     args, rest = build_parser().parse_known_args(argv)
     default = method_defaults("pica")
     tree = parse_tree(rest, default, "dragmesh2 train")  # the parsed tree, passed to the run whole
@@ -207,7 +215,8 @@ def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and
     spec = on_objects(tree.on("mujoco"), args.objects)
     record = spec.record("mujoco")
     assert RunSpec.from_record(record) == spec  # the record holds every flag
-    assert record["overrides"] == json.loads(json.dumps({**tree.overrides(default), "task.backend": "mujoco"}))
+    assert record["overrides"] == json.loads(json.dumps({**tree.overrides(default), "task.backend": "mujoco"},
+                                                        default=dataclasses.asdict))
     program = program_of(spec)
     assert program.task.num_objects == 2
     built = {"task": program.task.config, "scene": program.task.scene.config, "ppo": program.config,
@@ -227,15 +236,27 @@ def test_every_config_flag_reaches_the_run_record_and_the_built_task_trainer_and
                 for g in GROUPS if isinstance(getattr(default, g), cls)} & set(offered)
 
 
-def test_a_nested_field_is_a_flag_and_a_flag_tyro_refuses_is_one_line(capsys, tmp_path):
-    default = method_defaults("hold_blind_cmdp")
-    spec = parse_tree(["--task.reward.constraints.0.limit", "80", "--scene.hand.friction", "1.2",
-                       "--task.reset-noise.wrist-pos", "0.004"], default, "dragmesh2 train")
-    assert spec.task.reward.constraints[0].limit == 80.0 and spec.scene.hand.friction == 1.2
-    assert spec.task.reset_noise.wrist_pos == 0.004
-    assert dataclasses.replace(spec, task=default.task, scene=default.scene) == default  # nothing else moved
+def test_a_nested_field_is_a_flag_under_every_method_and_a_flag_tyro_refuses_is_one_line(capsys, tmp_path):
+    """The same flags whatever the method's default: an optional config (reset noise, ARAM, Reconfig) and the
+    constraints are one value each (``off``/``on``/``KEY=VALUE,...``; ``none``/``MEASURE:LIMIT[:...]``), booleans
+    ``--flag``/``--no-flag``."""
+    flags = ["--task.reward.constraints", "load:80", "--scene.hand.friction", "1.2", "--task.reset-noise",
+             "wrist_pos=0.004", "--task.reward.aram", "on", "--ppo.no-clip-value"]
+    for method in ("hold_blind_cmdp", "pica", "recommended"):
+        default = method_defaults(method)
+        spec = parse_tree(flags, default, "dragmesh2 train")
+        assert spec.task.reward.constraints == (Constraint(limit=80.0),) and spec.scene.hand.friction == 1.2
+        assert spec.task.reset_noise == ResetNoise(wrist_pos=0.004) and spec.task.reward.aram == AramConfig()
+        assert not spec.ppo.clip_value
+        moved = ("task.reward.constraints", "scene.hand.friction", "task.reset_noise", "task.reward.aram",
+                 "ppo.clip_value")
+        assert all(k.startswith(moved) for k in spec.overrides(default))  # nothing else moved
+    off = parse_tree(["--task.reset-noise", "off", "--task.reward.constraints", "none"], default, "dragmesh2 train")
+    assert off.task.reset_noise is None and off.task.reward.constraints == ()
     for bad in (["--ppo.lr", "fast"], ["--epoch", "3"], ["--task.force-obs", "maybe"], ["--network.state-sizes", "a"],
-                ["--scene.object-pos", "1,2"], ["--task.alpha", "-1"], ["--num-envs"]):
+                ["--scene.object-pos", "1,2"], ["--task.alpha", "-1"], ["--num-envs"], ["--task.reset-noise", "bank=x"],
+                ["--task.reset-noise", "banks=8"], ["--task.reward.constraints", "load:fast"],
+                ["--task.reward.constraints", "force:100"]):
         assert dragmesh2(["train", "--object", str(default_object()), "--out", str(tmp_path / "x"), *bad]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("error: "), (bad, err)

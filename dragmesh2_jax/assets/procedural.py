@@ -425,7 +425,7 @@ def synthesize_table1(n: int, seed: int, out: str | Path) -> list[Path]:
     return [p for c, k in table1_mix(n).items() for p in synthesize(c, k, seed, out)]
 
 
-#: The generalist's procedural mix (issue 36): every category, doors as many as drawers (the real benchmark's parts
+#: The generalist's procedural mix: every category, doors as many as drawers (the real benchmark's parts
 #: are doors as often as drawers), objects per category; the last of each category is held aside to select the
 #: generalist's checkpoint on (``held_aside_by_category``), the others are trained on.
 GENERALIST_MIX = {"drawer_cabinet": 10, "door_cabinet": 10, "microwave": 5, "refrigerator": 5, "dishwasher": 4,

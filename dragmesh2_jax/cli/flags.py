@@ -11,8 +11,10 @@ import contextlib
 import contextvars
 import dataclasses
 import io
+import json
 import re
 import textwrap
+import types
 import typing
 from typing import Annotated
 
@@ -28,9 +30,10 @@ from tyro.constructors import (
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.runs.commands import flag_value, parse_floats
+from dragmesh2_jax.runs.record import config_from_dict
 from dragmesh2_jax.runs.spec import RunSpec, Schedule
 from dragmesh2_jax.scene import SceneConfig
-from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.config import Constraint, TaskConfig
 
 
 def parse_dampings(text: str, what: str = "--damping") -> list[float]:
@@ -123,25 +126,73 @@ def _numbers(info: PrimitiveTypeInfo) -> PrimitiveConstructorSpec | None:
 
 
 @_REGISTRY.primitive_rule
-def _truth(info: PrimitiveTypeInfo) -> PrimitiveConstructorSpec | None:
-    """A bool as ``true`` or ``false`` (any case), as the record writes it."""
-    if info.type is not bool:
+def _optional_group(info: PrimitiveTypeInfo) -> PrimitiveConstructorSpec | None:
+    """An optional config (the reset noise, ARAM, Reconfig) as one value, the same flag whatever the method's
+    default: ``off``, ``on`` (its defaults) or ``KEY=VALUE,...`` (its defaults with these fields changed)."""
+    args = [a for a in typing.get_args(info.type) if a is not type(None)]
+    if typing.get_origin(info.type) not in (typing.Union, types.UnionType) or len(args) != 1 \
+            or not dataclasses.is_dataclass(args[0]):
         return None
+    cls = args[0]
 
-    def parse(tokens: list[str]) -> bool:
-        if tokens[0].lower() not in ("true", "false"):
-            raise ValueError(f"true or false expected, got {tokens[0]!r}")
-        return tokens[0].lower() == "true"
-    return PrimitiveConstructorSpec(nargs=1, metavar="true|false", instance_from_str=parse,
-                                    is_instance=lambda x: isinstance(x, bool),
-                                    str_from_instance=lambda x: [flag_value(x)])
+    def parse(tokens: list[str]):
+        text = tokens[0].strip()
+        if text in ("off", "on"):
+            return None if text == "off" else cls()
+        try:
+            pairs = dict(item.split("=", 1) for item in text.split(","))
+            return config_from_dict(cls, {k.strip().replace("-", "_"): _json(v) for k, v in pairs.items()},
+                                    where="the flag")
+        except (ValueError, DragMeshError) as e:
+            raise ValueError(f"off, on or KEY=VALUE,... of {', '.join(f.name for f in dataclasses.fields(cls))} "
+                             f"expected, got {text!r} ({e})") from None
+
+    def show(x) -> list[str]:
+        return ["off" if x is None else ",".join(f"{f.name}={flag_value(getattr(x, f.name))}"
+                                                 for f in dataclasses.fields(x))]
+    return PrimitiveConstructorSpec(nargs=1, metavar="off|on|KEY=VALUE,...", instance_from_str=parse,
+                                    is_instance=lambda x: x is None or isinstance(x, cls), str_from_instance=show)
+
+
+@_REGISTRY.primitive_rule
+def _constraints(info: PrimitiveTypeInfo) -> PrimitiveConstructorSpec | None:
+    """The reward's CMDP constraints as one value: ``none``, or each as
+    ``MEASURE:LIMIT[:COST[:BUDGET[:LR[:LAMBDA_MAX]]]]`` (``Constraint``'s fields in order; the rest its defaults),
+    comma-separated: ``load:100:rate:0.02``."""
+    if typing.get_args(info.type) != (Constraint, Ellipsis):
+        return None
+    names = [f.name for f in dataclasses.fields(Constraint)]
+
+    def parse(tokens: list[str]) -> tuple[Constraint, ...]:
+        text = tokens[0].strip()
+        if text == "none":
+            return ()
+        try:
+            return tuple(config_from_dict(Constraint, dict(zip(names, map(_json, item.split(":")), strict=False)),
+                                          where="the flag") for item in text.split(","))
+        except DragMeshError as e:
+            raise ValueError(f"none or {':'.join(n.upper() for n in names)},... expected ({e})") from None
+
+    def show(x) -> list[str]:
+        return [",".join(":".join(flag_value(getattr(c, n)) for n in names) for c in x) or "none"]
+    return PrimitiveConstructorSpec(nargs=1, metavar="none|MEASURE:LIMIT[:COST:BUDGET:LR:LAMBDA_MAX],...",
+                                    instance_from_str=parse, is_instance=lambda x: isinstance(x, tuple),
+                                    str_from_instance=show)
+
+
+def _json(text: str):
+    """A flag's value as the record would hold it: a number, true/false or null where it reads as one, else text."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text.strip()
 
 
 def _tyro(argv: list[str], default: RunSpec, prog: str) -> RunSpec:
     with _REGISTRY:
-        # a config that is None (ARAM's) stays as the method has it; booleans take a value, as the record has them
-        return tyro.cli(RunSpec, args=argv, default=default, prog=prog,
-                        config=(tyro.conf.AvoidSubcommands, tyro.conf.FlagConversionOff))
+        # optional configs and the constraints are one value each (_optional_group, _constraints); booleans are
+        # --flag / --no-flag
+        return tyro.cli(RunSpec, args=argv, default=default, prog=prog, config=(tyro.conf.AvoidSubcommands,))
 
 
 def parse_tree(argv: list[str], default: RunSpec, prog: str) -> RunSpec:
@@ -172,7 +223,7 @@ def tree_help(default: RunSpec, prog: str) -> str:
 
 
 #: A group's title and a flag's first line in tyro's help, with or without its frame (a terminal's, a pipe's).
-_GROUP, _FLAG = re.compile(r"^(\S+) options$"), re.compile(r"^(--[a-z0-9][a-z0-9.-]*)(\s|$)")
+_GROUP, _FLAG = re.compile(r"^(\S+) options$"), re.compile(r"^(--[a-z0-9][a-z0-9.-]*)(\s|,|$)")
 
 
 def tree_flags(default: RunSpec, prog: str) -> dict[str, list[str]]:

@@ -2,7 +2,8 @@
 use (rl_games' "default" initialiser leaves PyTorch's in place, GLA's linears included; every bias zeroed;
 design §6). PyTorch draws a kernel from U(-1/sqrt(fan_in), 1/sqrt(fan_in)) (kaiming_uniform with a = sqrt(5)): variance
 1/(3 fan_in), a third of flax's default lecun_normal. With flax's default the initial action means are 2x (history
-encoders) to 7x (state-only MLP) larger, and PPO starts, and stays, at the action bounds (RESULTS.md §14)."""
+encoders) to 7x (state-only MLP) larger, and PPO starts, and stays, at the action bounds
+(results/archive.md, part 1 §14)."""
 
 from __future__ import annotations
 

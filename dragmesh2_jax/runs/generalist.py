@@ -1,4 +1,4 @@
-"""The generalist (issue 36): one policy over procedural objects of every category. Its training run
+"""The generalist: one policy over procedural objects of every category. Its training run
 (``train --generalist``: the ``generalist`` method over ``GENERALIST_MIX``, built into the run's own folder and held
 aside one object per category for its robustness checks), and ``open``: the packaged generalist on any object
 folder, no training (the trajectory built, deterministic episodes, a short report, a video and a still)."""

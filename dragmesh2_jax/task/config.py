@@ -194,8 +194,10 @@ class RewardConfig:
     lagrangian: Lagrangian = "plain"
     """how the constraints enter r_t (LAGRANGIANS' comment)"""
     aram: AramConfig | None = None
-    """diagnostic fine-tunes (paper App. B.5): off in the main recipe"""
+    """ARAM-lite, a diagnostic fine-tune's adaptive penalty (paper App. B.5; AramConfig): off in the main recipe"""
     reconfig: ReconfigConfig | None = None
+    """Reconfig, a diagnostic fine-tune's bonus for regaining contact after a stall (paper App. B.6; ReconfigConfig):
+    off in the main recipe"""
 
     @staticmethod
     def upgrade(data: dict) -> dict:
@@ -272,7 +274,8 @@ class TaskConfig:
     friction_range: tuple[float, float] | None = None
     """the object's friction scale, sampled per reset; None: off"""
     reset_noise: ResetNoise | None = None
-    """None: the paper's exact expert-grasp reset"""
+    """a seeded perturbation of the expert grasp each episode starts from (ResetNoise); off: the paper's exact
+    expert-grasp reset"""
     force_obs: bool = False
     """beyond the paper: contact-load sensors in s_t and in every history token"""
     observation: Observation = "paper"

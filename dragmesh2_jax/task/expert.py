@@ -1,4 +1,4 @@
-"""The expert drag as the task reads it, beyond the paper (issue 33): the prior a residual policy adds to
+"""The expert drag as the task reads it, beyond the paper: the prior a residual policy adds to
 (``TaskConfig.expert_prior``) and the unit of the ``relative_load`` measure, the expert's own peak wrist load on the
 object at the world's damping, so that one constraint bounds every object's pull by what its expert needs there."""
 

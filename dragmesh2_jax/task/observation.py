@@ -4,7 +4,7 @@
 (6), palm-to-handle vector (3), distance d (1), object q and qd (2), phi = [progress, (q_done - q) / Delta, Delta] (3).
 Its world positions and raw joint values tie a policy to the object it was trained on.
 
-``handle`` (110, issue 36: an observation that transfers across objects): everything in the handle's current frame
+``handle`` (110: an observation that transfers across objects): everything in the handle's current frame
 (columns: long axis, outward normal, their cross product; it moves with the part) or in task units, nothing that
 identifies the object. A bar's long axis is a line, not a direction: an importer may give it either way (GAPartNet's
 doors point it up, the procedural ones down), and the policy, which acts along the world's axes, would read one door as

@@ -232,24 +232,32 @@ def test_a_new_method_is_one_entry_that_reaches_the_record_and_the_command_line(
 
 
 def _leaves(tree, path: str = ""):
-    """Every field of a config tree that holds a value, by dotted path (a config nested in it: its fields; one that
-    is None or an empty tuple of configs: none)."""
+    """Every field of a config tree that is a flag, by dotted path: a config nested in it by its fields, an optional
+    config or a tuple of configs (the constraints) as one value."""
     hints = typing.get_type_hints(type(tree))
     for f in dataclasses.fields(tree):
         value, where = getattr(tree, f.name), f"{path}{f.name}"
-        if dataclasses.is_dataclass(value):
+        if dataclasses.is_dataclass(value) and type(None) not in typing.get_args(hints[f.name]):
             yield from _leaves(value, where + ".")
-        elif any(dataclasses.is_dataclass(t) for t in typing.get_args(hints[f.name])):  # optional, or a tuple of them
-            for i, item in enumerate(value if isinstance(value, tuple) else ()):
-                yield from _leaves(item, f"{where}.{i}.")
         else:
-            yield where, value
+            yield where, value, hints[f.name]
 
 
-def _shown(value) -> str:
-    """A default as ``--help`` shows it: a flag's value, a tuple of tuples as several values."""
-    return " ".join(map(flag_value, value)) if isinstance(value, tuple) and value and isinstance(
-        value[0], tuple) else flag_value(value)
+def _shown(value, hint) -> str:
+    """A default as ``--help`` shows it: a flag's value, a tuple of tuples as several values, an optional config as
+    ``off`` or its fields, the constraints as ``none`` or their fields, colon-separated."""
+    configs = [t for t in typing.get_args(hint) if dataclasses.is_dataclass(t)]
+    if configs and value in (None, ()):
+        return "off" if value is None else "none"
+    if isinstance(value, bool):
+        return str(value)
+    if dataclasses.is_dataclass(value):
+        return ",".join(f"{f.name}={flag_value(getattr(value, f.name))}" for f in dataclasses.fields(value))
+    if isinstance(value, tuple) and value and dataclasses.is_dataclass(value[0]):
+        return ",".join(":".join(flag_value(getattr(c, f.name)) for f in dataclasses.fields(c)) for c in value)
+    if isinstance(value, tuple) and value and isinstance(value[0], tuple):
+        return " ".join(map(flag_value, value))
+    return flag_value(value)
 
 
 def test_every_config_field_reaches_the_record_and_a_train_flag_with_its_default():
@@ -261,7 +269,7 @@ def test_every_config_field_reaches_the_record_and_a_train_flag_with_its_default
         default = method_defaults(method)
         record, helps = default.record("mujoco"), tree_help(default)
         for group in SECTIONS:
-            for path, value in _leaves(getattr(default, group), f"{group}."):
+            for path, value, hint in _leaves(getattr(default, group), f"{group}."):
                 field = path.split(".")[1]
                 assert field in record[group], f"{path} not recorded"
                 if field in NOT_FLAGS.get(type(getattr(default, group)), ()):
@@ -269,7 +277,8 @@ def test_every_config_field_reaches_the_record_and_a_train_flag_with_its_default
                     continue
                 assert flag_of(path) in helps, f"{path}: no {flag_of(path)}"
                 shown = helps[flag_of(path)]
-                assert f"(default: {_shown(value)})" in shown, (path, shown)
+                # (a long default wraps in the help: compared without its spaces)
+                assert f"(default:{_shown(value, hint)})".replace(" ", "") in shown.replace(" ", ""), (path, shown)
                 assert shown.split(maxsplit=2)[2].partition("(default:")[0].strip(), f"{path}: no docstring"
 
 
