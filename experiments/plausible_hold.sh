@@ -14,7 +14,7 @@ door=$(python -c "from dragmesh2_jax.assets.procedural import packaged_object; p
 cells=(--damping 1,2,4,8,16 --episodes 50 --mode det,stoch --backend mujoco)
 dragmesh2 reproduce main --methods hold_blind --objects "$door" --seeds 0,1,2 --epochs 300 "${cells[@]}" \
   --out "$out/door"
-dragmesh2 reproduce main --methods pica,state_only --objects "$door" --seeds 0,1,2 --epochs 300 --checkpoint final \
+dragmesh2 reproduce main --methods pica,state_only --objects "$door" --seeds 0,1,2 --epochs 300 --checkpoint-rule final \
   "${cells[@]}" --out "$out/door_paper"
 for recipe in ${RECIPES:-plausible plausible_cap100}; do for s in 0 1 2; do
   ft="$out/$recipe/s$s"

@@ -354,6 +354,28 @@ def test_every_flag_shows_its_own_fields_help():
         assert values in shown[flag], shown[flag]
 
 
+def test_every_command_spells_a_flag_one_way():
+    """One spelling per meaning on every subcommand: damping cells ``--damping``, video frequency ``--video-every``,
+    several objects ``--objects A B`` (one object ``--object``), several seeds ``--seeds``, and ``--checkpoint``
+    always a checkpoint (a run, one of its checkpoints or a packaged name), a checkpoint rule ``--checkpoint-rule``."""
+    spelled = {}
+    for sub in _subparsers(build_parser()):
+        for a in sub._actions:
+            for flag in a.option_strings:
+                spelled.setdefault(flag, []).append((sub.prog, a))
+    assert not {"--dampings", "--every", "--seed-list", "--object-list"} & set(spelled)
+    for prog, a in spelled.get("--checkpoint", []):
+        assert a.choices is None and "rule" not in (a.help or ""), prog
+    for prog, a in spelled.get("--object", []):
+        assert "comma" not in (a.help or "") and a.nargs is None, prog
+    for prog, a in spelled.get("--objects", []):
+        assert a.nargs in ("+", "*"), prog  # a list of folders, space-separated
+    for flag in ("--damping", "--video-every"):
+        assert len({a.dest for _, a in spelled[flag]}) == 1, flag
+    assert "--damping" in _flag_helps(method_defaults("recommended")) and "--checkpoint-rule" in _flag_helps(
+        method_defaults("recommended"))
+
+
 def test_train_without_a_method_trains_the_recipe():
     assert train_defaults(None, None, False, None).method == RECOMMENDED == DEFAULT_METHOD
 

@@ -287,7 +287,7 @@ def build_parser() -> argparse.ArgumentParser:
     prp.add_argument("--scaling", default=_csv(SCALING_OBJECTS),
                      help="scaling: training-set sizes (nested procedural objects in the Table 1 mix)")
     prp.add_argument("--mode", default=",".join(PAPER.modes), help="evaluation modes of trained runs (det, stoch)")
-    prp.add_argument("--checkpoint", choices=CHECKPOINTS,
+    prp.add_argument("--checkpoint-rule", choices=CHECKPOINTS,
                      help="main/ablation: evaluate each run's best_robust checkpoint (the paper's selection) or its "
                           "final one (rows then read METHOD@EPOCHS) (default: each method's own rule: best_robust "
                           "for the paper's, final for the recipe)")
