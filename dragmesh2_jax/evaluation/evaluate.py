@@ -144,13 +144,16 @@ PHYSICAL = (
 def markdown_table(result: dict) -> str:
     """The cells (success with its interval, how far and how long, saturation, and the physical figures: the wrist
     load, the palm's and the part's pace, penetration and smoothness) and the robustness per mode."""
-    lines = ["| damping | mode | success [95% CI] | progress | return | steps | clip099 | clip099 active | detach | "
-             "action L2 | " + " | ".join(h for _, h, _ in PHYSICAL) + " |", "|---" * (10 + len(PHYSICAL)) + "|"]
+    lines = ["| damping | mode | success [95% CI] | progress | return | steps | clip099 | clip099 active | "
+             "policy's own clip099 active | detach | action L2 | " + " | ".join(h for _, h, _ in PHYSICAL) + " |",
+             "|---" * (11 + len(PHYSICAL)) + "|"]
     for r in result["cells"]:
         lo, hi = r["success_ci95"]
+        own = r.get("clip099_policy_active")  # an evaluation written before it was counted has none
         lines.append(f"| x{r['damping']:g} | {r['mode']} | {r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}] | "
                      f"{r['progress_mean']:.2f} | {r['return_mean']:.1f} | {r['steps_mean']:.1f} | "
-                     f"{r['clip099']:.3f} | {r['clip099_active']:.3f} | {r['detach_rate']:.2f} | "
+                     f"{r['clip099']:.3f} | {r['clip099_active']:.3f} | {'-' if own is None else f'{own:.3f}'} | "
+                     f"{r['detach_rate']:.2f} | "
                      f"{r['action_l2_mean']:.2f} | " + " | ".join(f.format(r[k]) for k, _, f in PHYSICAL) + " |")
     lines += ["", "| mode | mean success | worst success | clip099 active |", "|---|---|---|---|"]
     for m, v in result["robustness"].items():

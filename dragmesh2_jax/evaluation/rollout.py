@@ -28,8 +28,8 @@ from dragmesh2_jax.policies.controller import Policy
 from dragmesh2_jax.task.env import PullTask, TaskData, applied_action
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
-ACCUMULATED = ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret", "overflow", "load_peak",
-               "palm_speed_peak", "part_speed_peak", "penetration_max", "change")
+ACCUMULATED = ("steps", "clip", "clip_active", "clip_policy", "l2", "success", "detach", "progress", "ret", "overflow",
+               "load_peak", "palm_speed_peak", "part_speed_peak", "penetration_max", "change")
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +65,7 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
     k_env, k_act = jax.random.split(key)
     state = reset(jax.random.split(k_env, n), jnp.asarray(r.scales, jnp.float32), jnp.arange(n) % r.episodes)
     acc0 = {k: jnp.zeros(n) for k in ACCUMULATED}
+    active = jnp.asarray(r.task.scene.config.active_dofs())
 
     def body(state, live, acc, key):
         key, k = jax.random.split(key)
@@ -84,6 +85,10 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
             "steps": acc["steps"] + live, "l2": acc["l2"] + live * m["action_l2"],
             "clip": acc["clip"] + live * (m["action_abs_max"] > CLIP_LEVEL),
             "clip_active": acc["clip_active"] + live * (m["active_abs_max"] > CLIP_LEVEL),
+            # the policy's own output, before a residual adds to the expert's (a target controller's: what it applied)
+            "clip_policy": acc["clip_policy"] + live * (
+                m["active_abs_max"] if r.controls == "targets" else jnp.max(jnp.where(active, jnp.abs(u), 0.0), -1)
+            > CLIP_LEVEL),
             "overflow": acc["overflow"] + live * m["overflow"],
             "load_peak": peak("load_peak", jnp.linalg.norm(before.force[:, :3], axis=-1)),
             "palm_speed_peak": peak("palm_speed_peak", jnp.linalg.norm(after.palm - before.palm, axis=-1) / dt),
@@ -151,10 +156,12 @@ PEAK_PERCENTILE = 95
 def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
     """Per damping cell, over the first episode of every world of the cell: success_rate with its 95% Wilson
     interval, progress_mean (final progress), return_mean, steps_mean (episode length), clip099 over every action
-    channel and clip099_active over the DoFs that move, detach_rate, action_l2_mean; and how it was done, physically:
-    wrist_load_peak_n, palm_speed_peak_m_s and part_speed_peak (joint units per second), each the 95th percentile
-    over the episodes of each episode's peak; penetration_max_mm, the deepest hand-object penetration of any episode;
-    action_smoothness, the mean |a_t - a_(t-1)| over channels and steps (action units)."""
+    channel and clip099_active over the DoFs that move (the applied action), clip099_policy_active the same of the
+    policy's own output (a residual's before it adds to the expert's: the saturation the policy chose),
+    detach_rate, action_l2_mean; and how it was done, physically: wrist_load_peak_n, palm_speed_peak_m_s and
+    part_speed_peak (joint units per second), each the 95th percentile over the episodes of each episode's peak;
+    penetration_max_mm, the deepest hand-object penetration of any episode; action_smoothness, the mean
+    |a_t - a_(t-1)| over channels and steps (action units)."""
     acc = result["acc"]
     records = []
     for i, d in enumerate(dampings):
@@ -169,6 +176,7 @@ def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
             "return_mean": float(np.mean(acc["ret"][sl])), "steps_mean": float(np.mean(steps)),
             "clip099": float(acc["clip"][sl].sum() / total),
             "clip099_active": float(acc["clip_active"][sl].sum() / total),
+            "clip099_policy_active": float(acc["clip_policy"][sl].sum() / total),
             "detach_rate": float(np.mean(acc["detach"][sl] > 0)),
             "action_l2_mean": float(acc["l2"][sl].sum() / total),
             "wrist_load_peak_n": float(np.percentile(acc["load_peak"][sl], PEAK_PERCENTILE)),

@@ -93,20 +93,22 @@ def comparison_table(results: list[dict], labels: list[str], objects: list[str],
 
 def physical_table(results: list[dict], labels: list[str], objects: list[str],
                    dampings: tuple[float, ...] = PAPER_DAMPINGS) -> str:
-    """How each row opened the parts: its det cells' saturation and physical figures (``evaluate.PHYSICAL``), the
-    mean over objects and seeds (penetration: the deepest); '-' where no evaluation has them."""
+    """How each row opened the parts: its det cells' saturation (the applied action's, and the policy's own: a
+    residual's before it adds to the expert's) and physical figures (``evaluate.PHYSICAL``), the mean over objects and
+    seeds (penetration: the deepest); '-' where no evaluation has them."""
     names = [Path(o).name for o in objects]
-    lines = ["| method | damp | clip099 active | " + " | ".join(h for _, h, _ in PHYSICAL) + " |",
-             "|---|---|---|" + "---|" * len(PHYSICAL)]
+    lines = ["| method | damp | clip099 active | policy's own | " + " | ".join(h for _, h, _ in PHYSICAL) + " |",
+             "|---|---|---|---|" + "---|" * len(PHYSICAL)]
     for label in labels:
         for d in dampings:
             cs = [c for r in results if r["label"] == label and r["object"] in names for c in r["cells"]
                   if c["damping"] == d and c["mode"] == "det" and "wrist_load_peak_n" in c]
             if not cs:
-                lines.append(f"| {label} | x{d:g} | " + " | ".join(["-"] * (len(PHYSICAL) + 1)) + " |")
+                lines.append(f"| {label} | x{d:g} | " + " | ".join(["-"] * (len(PHYSICAL) + 2)) + " |")
                 continue
             pick = {k: max if k == "penetration_max_mm" else np.mean for k, _, _ in PHYSICAL}
-            row = [f"{np.mean([c['clip099_active'] for c in cs]):.2f}"] + [
+            own = [c["clip099_policy_active"] for c in cs if "clip099_policy_active" in c]  # not in older ones
+            row = [f"{np.mean([c['clip099_active'] for c in cs]):.2f}", f"{np.mean(own):.2f}" if own else "-"] + [
                 f.format(float(pick[k]([c[k] for c in cs]))) for k, _, f in PHYSICAL]
             lines.append(f"| {label} | x{d:g} | " + " | ".join(row) + " |")
     return "\n".join(lines)

@@ -102,6 +102,7 @@ def open_object(object_dir: str, damping: float, out: str | Path, checkpoint: st
               "successes": cell["successes"], "steps_mean": cell["steps_mean"],
               "wrist_load_peak_n": cell["wrist_load_peak_n"], "palm_speed_peak_m_s": cell["palm_speed_peak_m_s"],
               "penetration_max_mm": cell["penetration_max_mm"], "clip099_active": cell["clip099_active"],
+              "clip099_policy_active": cell["clip099_policy_active"],
               "video": str(video), "renderer": used, "still": str(out / "still.png"),
               "evaluation": str(evaluation) if evaluation else None, "evaluation_not_in_run": not_in_run}
     atomic_write_json(out / "report.json", report)
@@ -115,6 +116,7 @@ def _markdown(r: dict, name: str) -> str:
         f"- opened in **{r['successes']} of {r['episodes']}** deterministic episodes (perturbed starts), "
         f"{r['steps_mean']:.0f} control steps on average (1/60 s each)",
         f"- wrist load p95 {r['wrist_load_peak_n']:.0f} N, palm speed p95 {r['palm_speed_peak_m_s']:.2f} m/s, deepest "
-        f"penetration {r['penetration_max_mm']:.1f} mm, saturated active DoFs {r['clip099_active']:.2f}",
+        f"penetration {r['penetration_max_mm']:.1f} mm, saturated active DoFs {r['clip099_active']:.2f} (the policy's "
+        f"own output: {r['clip099_policy_active']:.2f})",
         f"- checkpoint: `{r['checkpoint']}`", f"- video: `{Path(r['video']).name}` ({r['renderer']}), still: "
         "`still.png`", "", f"![the last frame]({Path(r['still']).name})", ""])

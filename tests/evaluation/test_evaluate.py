@@ -17,6 +17,7 @@ from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.evaluation.rollout import cells, frames, rollout, trace, wilson_interval
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.task.env import PullTask
 
 
 def rollout_cells(task, policy, params, dampings, episodes, seed=42):
@@ -51,6 +52,21 @@ def test_clip099_counts_all_channels_and_active_ones_separately(drawer_task):
     assert c["clip099_active"] == 0.0  # ...but moves nothing: the active-DoF figure sees no saturation
     cells = rollout_cells(task, _pull_policy(task, locked_value=0.0), jnp.float32(1.0), [1.0], episodes=4)
     assert cells[0]["clip099"] == 0.0
+
+
+def test_a_residuals_own_saturation_is_counted_beside_the_applied_actions(drawer_task):
+    """Under the expert prior the applied action is the policy's residual plus the expert drag's: a residual of zeros
+    applies the expert's, which saturates active DoFs (its grip is pressed deeper than alpha), while the policy itself
+    never goes near its bound; without the prior the policy's output is what is applied, one figure."""
+    zeros = lambda params, obs, key: jnp.zeros((obs.state.shape[0], 51))  # noqa: E731
+    residual = PAPER.task(PullTask(drawer_task.scene, drawer_task.traj,
+                                   dataclasses.replace(drawer_task.config, expert_prior=True)))
+    c = rollout_cells(residual, zeros, None, [1.0], episodes=4)[0]
+    assert c["clip099_active"] > 0.2 and c["clip099_policy_active"] == 0.0
+    assert "| 0.000 |" in markdown_table({"cells": [{**c, "mode": "det"}], "robustness": {}})
+    task = PAPER.task(drawer_task)
+    c = rollout_cells(task, _pull_policy(task, locked_value=0.0), jnp.float32(2.0), [1.0], episodes=4)[0]
+    assert c["clip099_policy_active"] == c["clip099_active"] > 0.0  # the pull at 2x: at the bound, as applied
 
 
 def test_cells_report_rates_with_intervals(drawer_task):
@@ -155,8 +171,8 @@ def test_every_cell_reports_how_the_part_was_opened_and_the_experts_load_is_the_
 
 def test_a_cells_peaks_are_the_95th_percentile_of_its_episodes_and_penetration_the_deepest():
     n = 20
-    acc = {k: np.zeros(n) for k in ("steps", "clip", "clip_active", "l2", "success", "detach", "progress", "ret",
-                                    "change")}
+    acc = {k: np.zeros(n) for k in ("steps", "clip", "clip_active", "clip_policy", "l2", "success", "detach",
+                                    "progress", "ret", "change")}
     acc["steps"][:] = 10
     acc["load_peak"] = np.arange(1.0, n + 1)  # 1 .. 20 N
     acc["palm_speed_peak"], acc["part_speed_peak"] = np.ones(n), np.full(n, 2.0)
