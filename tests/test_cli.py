@@ -183,8 +183,9 @@ def flag_args(path: str, value) -> list[str]:
     return [flag, ",".join(str(v) for v in value) if isinstance(value, tuple) else str(value)]
 
 
-def tree_help(default: RunSpec) -> dict[str, str]:
-    """What ``train --help`` says of each configuration flag under ``default``: flag -> its help, on one line."""
+def tree_help(default: RunSpec, head: bool = True) -> dict[str, str]:
+    """What ``train --help-tree`` says of each configuration flag under ``default``: flag -> its help, on one line
+    (``head``: after the flag's own line, its name and type; without: the help alone)."""
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         print_tree_help(default, "dragmesh2 train")
@@ -193,9 +194,9 @@ def tree_help(default: RunSpec) -> dict[str, str]:
         text = line.strip(" \u2502\u256d\u256e\u2570\u256f\u2500")
         if m := re.match(r"(--[a-z][\w.-]*)", text):
             flag = m.group(1)
-            entries[flag] = text
+            entries[flag] = text if head else ""
         elif flag and text and set(text) - set("-"):
-            entries[flag] += " " + text
+            entries[flag] = f"{entries[flag]} {text}".strip()
         else:
             flag = None
     return entries
@@ -307,20 +308,8 @@ def test_help_shows_every_default():
 
 
 def _flag_helps(default: RunSpec) -> dict[str, str]:
-    """Each configuration flag's own help text under ``default`` (its type and default left out)."""
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        print_tree_help(default, "dragmesh2 train")
-    helps, flag = {}, None
-    for line in out.getvalue().splitlines():
-        text = line.strip(" \u2502\u256d\u256e\u2570\u256f\u2500")
-        if m := re.match(r"(--[a-z][\w.-]*)", text):
-            flag, helps[m.group(1)] = m.group(1), ""
-        elif flag and text and set(text) - set("-"):
-            helps[flag] += " " + text
-        else:
-            flag = None
-    return {f: re.sub(r"\s*\(default: [^)]*\)$", "", h).strip() for f, h in helps.items()}
+    """Each configuration flag's own help text under ``default`` (its name, type and default left out)."""
+    return {f: re.sub(r"\s*\(default: [^)]*\)$", "", h) for f, h in tree_help(default, head=False).items()}
 
 
 def test_train_help_is_one_short_page_and_names_the_offered_methods(capsys):

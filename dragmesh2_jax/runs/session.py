@@ -114,7 +114,6 @@ class _Progress:
                             TextColumn("{task.fields[stats]}"), disable=not enabled or to_log())
         self.task = self.bar.add_task(name, total=total, completed=done, stats="")
         self.lines = LogLines(name, total, done, every=max(1, total // 10), enabled=enabled)
-
         if enabled and done < total:  # the first epoch waits for its program to compile: say so, not nothing
             print(f"{name}: compiling the epoch program (the first epoch waits for it)", file=sys.stderr, flush=True)
 
@@ -137,10 +136,10 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
     ``RunDir.require_new``); None resumes when every folder has an epoch checkpoint and starts otherwise.
     ``overwrite``: remove what the runs' folders hold of earlier runs (``RunDir.clear``, said on stderr) and start
     new runs. A checkpoint whose replacement a kill interrupted is put back first (``RunDir.restore_interrupted``).
-    A run stopped before its first checkpoint, whatever stopped
-    it, starts again either way (resumed, from its record). A resumed run takes the schedule of ``spec`` where one
-    is given (None: its own): its epochs (more extend the run) and its checkpoint and robustness intervals, revised
-    in its record; the rest of the record stands. ``start``: a fine-tune's first state (one run). ``backend``:
+    A run stopped before its first checkpoint, whatever stopped it, starts again either way (resumed, from its
+    record). A resumed run takes the schedule of ``spec`` where one is given (None: its own): its epochs (more extend
+    the run) and its checkpoint and robustness intervals, and its buffer sizes, revised in its record; the rest of the
+    record stands. ``start``: a fine-tune's first state (one run). ``backend``:
     resume on this engine instead of the recorded task's. ``selection``: the protocol of the robustness checks
     that keep ``best_robust`` (every ``schedule.robust_every`` epochs; None: ``SELECTION`` at
     ``schedule.robust_episodes`` episodes). ``wandb``: a W&B project that gets the same
