@@ -138,7 +138,8 @@ class RunDir:
         spec's order) once (``require_new``): what a run that stopped before its first checkpoint left is replaced
         (``RUN_PRODUCTS``; the rest of the folder stays)."""
         self.require_new()
-        self.clear()
+        if self.exists():
+            self.clear()
         self.path.mkdir(parents=True, exist_ok=True)
         trajectories = trajectory if isinstance(trajectory, list) else [trajectory]
         write_trajectory(trajectories[0], self.trajectory_path)
