@@ -65,7 +65,6 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
     k_env, k_act = jax.random.split(key)
     state = reset(jax.random.split(k_env, n), jnp.asarray(r.scales, jnp.float32), jnp.arange(n) % r.episodes)
     acc0 = {k: jnp.zeros(n) for k in ACCUMULATED}
-    active = jnp.asarray(r.task.scene.config.active_dofs())
 
     def body(state, live, acc, key):
         key, k = jax.random.split(key)
@@ -87,7 +86,7 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
             "clip_active": acc["clip_active"] + live * (m["active_abs_max"] > CLIP_LEVEL),
             # the policy's own output, before a residual adds to the expert's (a target controller's: what it applied)
             "clip_policy": acc["clip_policy"] + live * (
-                m["active_abs_max"] if r.controls == "targets" else jnp.max(jnp.where(active, jnp.abs(u), 0.0), -1)
+                m["active_abs_max"] if r.controls == "targets" else jnp.max(jnp.where(task.active, jnp.abs(u), 0.0), -1)
             > CLIP_LEVEL),
             "overflow": acc["overflow"] + live * m["overflow"],
             "load_peak": peak("load_peak", jnp.linalg.norm(before.force[:, :3], axis=-1)),

@@ -296,8 +296,8 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
         "success": at_end(m["success"]), "progress": at_end(m["progress"]), "detach": at_end(m["detach"]),
         "episode_return": at_end(m["episode_return"]), "clip099": mean(jnp.mean(m["action_abs_max"] > CLIP_LEVEL)),
         "clip099_active": mean(jnp.mean(m["active_abs_max"] > CLIP_LEVEL)),
-        "clip099_policy_active": mean(jnp.mean(jnp.max(jnp.where(
-            program.task.scene.config.active_dofs(), jnp.abs(traj["action"]), 0.0), -1) > CLIP_LEVEL)),
+        "clip099_policy_active": mean(jnp.mean(jnp.max(jnp.where(program.task.active, jnp.abs(traj["action"]), 0.0),
+                                                         -1) > CLIP_LEVEL)),
         "action_l2": mean(m["action_l2"].mean()), "nonfinite": total(m["nonfinite"].sum()),
         "overflow": total(m["overflow"].sum()),
     }

@@ -132,6 +132,10 @@ class ObjectMix:
         return self.base.object_id
 
     @property
+    def active(self) -> jnp.ndarray:
+        return self.base.active  # one hand for every object
+
+    @property
     def scene(self) -> Scene:
         """The first object's scene (what a picture of the mix draws)."""
         return self.base.scene

@@ -63,6 +63,7 @@ class Env(Protocol):
     """What training, evaluation, an object mix and the benchmarks read of an env (``PullTask``, ``ObjectMix``)."""
 
     action_size: int
+    active: jnp.ndarray  # (action_size,) bool: the channels that move something (the others locked)
     data: Any  # everything object-specific: an argument of every compiled program
     config: TaskConfig
     substeps: int  # physics steps per control step

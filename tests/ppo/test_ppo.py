@@ -27,6 +27,7 @@ class PointMass:
     An env of the protocol (task/protocol.py), so the unchanged training program drives it."""
 
     action_size = 2
+    active = jnp.ones(2, bool)
     config = SimpleNamespace(episode_length=30)
     data = jnp.zeros(())  # nothing object-specific
 
