@@ -25,10 +25,10 @@ from dragmesh2_jax.render import render_policy_video, render_pose, render_trajec
 from dragmesh2_jax.runs.build import load_task, program_of
 from dragmesh2_jax.runs.presets import DEFAULT_METHOD, get_finetune
 from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import RESCHEDULABLE, start_or_resume
+from dragmesh2_jax.runs.session import RESUMABLE, start_or_resume
 from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, on_objects
 from dragmesh2_jax.scene import SceneConfig, build_scene
-from dragmesh2_jax.task.config import RESIZABLE, TaskConfig
+from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import contact_budget
 from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.generator import generate
@@ -137,29 +137,18 @@ def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | No
     return program, list(zip(seeds or [spec.schedule.seed], logs, strict=True))
 
 
-#: What a resume may change of the recorded tree (``runs/session.py`` applies them): the schedule's length and
-#: intervals, and the buffer sizes.
-RESUMABLE = {f"schedule.{k}" for k in RESCHEDULABLE} | {f"task.{k}" for k in RESIZABLE}
-
-
 def _check_resume(run: RunDir, tree: RunSpec, method: str | None, object_dir, holdout: int | None) -> None:
     """A resume continues the recorded run exactly: flags that would change it are refused, saying what differs."""
     recorded = run.spec()
     differ = recorded.differences(method, object_dir)
-    differ += [f"{k} {flag_value(v)} (recorded {flag_value(_at(recorded, k))})"
+    was = recorded.overrides(tree)  # the recorded values at the paths the flags change
+    differ += [f"{k} {flag_value(v)} (recorded {flag_value(was[k])})"
                for k, v in tree.overrides(recorded).items() if k not in RESUMABLE]
     if holdout is not None and holdout != recorded.holdout:
         differ.append(f"holdout {holdout} (recorded {recorded.holdout})")
     if differ:
         raise DragMeshError(f"{run.path}: --resume continues the recorded run exactly, but the flags change "
                             f"{'; '.join(differ)}; drop them, or start a new run in another --out")
-
-
-def _at(spec: RunSpec, path: str):
-    value = spec
-    for name in path.split("."):
-        value = getattr(value, name)
-    return value
 
 
 def flag_value(value) -> str:

@@ -166,6 +166,8 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
 #: What a resume may change of a run's schedule: its length (more epochs extend it), checkpoint and robustness
 #: intervals. Its seed and how it is read stand with the rest of the record.
 RESCHEDULABLE = ("epochs", "save_every", "robust_every", "robust_episodes")
+#: What a resume may change of a recorded tree, by dotted path: the above and the buffer sizes (``_continued``).
+RESUMABLE = frozenset({f"schedule.{k}" for k in RESCHEDULABLE} | {f"task.{k}" for k in RESIZABLE})
 
 
 def _continued(recorded: RunSpec, given: RunSpec | None) -> RunSpec:
