@@ -1,6 +1,7 @@
 """Progress that shows in a log. On a terminal a long job draws a progress bar (rich); where standard error is not a
 terminal (``nohup``, a CI log, a pipe) it prints one plain line per finished unit instead: what finished, the time
-elapsed and the estimated time left. Train, reproduce, ``dataset build`` and the demo report through it."""
+elapsed and the estimated time left. Train, reproduce, ``dataset build``, the demo and
+``evaluate`` (lines on a terminal too) report through it."""
 
 from __future__ import annotations
 
@@ -15,11 +16,13 @@ def to_log() -> bool:
 
 class LogLines:
     """One line per finished unit (at most one per ``every`` units, and the last) when ``enabled`` and writing to a
-    log: ``name: what (k/total)  elapsed N s  left ~M s``. Costs may weigh units (an epoch vs an evaluation)."""
+    log (or, ``terminal`` too, where no bar is drawn): ``name: what  elapsed N s  left ~M s``. Costs may weigh units
+    (an epoch vs an evaluation)."""
 
-    def __init__(self, name: str, total: float, done: float = 0.0, every: float = 1.0, enabled: bool = True):
+    def __init__(self, name: str, total: float, done: float = 0.0, every: float = 1.0, enabled: bool = True,
+                 terminal: bool = False):
         self.name, self.total, self.done0, self.every = name, total, done, every
-        self.enabled = enabled and to_log()
+        self.enabled = enabled and (terminal or to_log())
         self.t0, self.next = time.time(), done + every
 
     def __call__(self, done: float, what: str) -> None:

@@ -331,13 +331,14 @@ def cmd_evaluate(args) -> int:
     if args.checkpoint:
         try:
             result, path = evaluate_checkpoint(args.checkpoint, protocol, _engine(args.backend), args.impl,
-                                               args.object, args.trajectory)
+                                               args.object, args.trajectory, progress=not args.quiet)
         except NotSaved as e:  # computed, not saved: printed whole, then the one error line
             print(json.dumps(e.result, indent=1) if args.json else markdown_table(e.result))
             raise
         _err(f"evaluation: {path or 'not written (a packaged run is read, never written)'}")
     else:
-        result = evaluate_baseline(args.method, args.object, args.trajectory, protocol, args.backend, args.impl)
+        result = evaluate_baseline(args.method, args.object, args.trajectory, protocol, args.backend, args.impl,
+                                   progress=not args.quiet)
     print(json.dumps(result, indent=1) if args.json else markdown_table(result))
     return 0
 

@@ -250,6 +250,7 @@ def build_parser() -> argparse.ArgumentParser:
     pev.add_argument("--exact-reset", action="store_true",
                      help="the paper's noise-free start (default: perturbed expert grasps, so cells are rates)")
     pev.add_argument("--json", action="store_true")
+    pev.add_argument("--quiet", action="store_true", help="no progress lines on standard error")
     _add_backend_args(pev)
     pev.set_defaults(func=cmd_evaluate)
 

@@ -10,6 +10,7 @@ the parallel-jaw primitive).
 from __future__ import annotations
 
 import dataclasses
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.evaluation.rollout import cells, rollout
 from dragmesh2_jax.io import atomic_write_figure
 from dragmesh2_jax.policies.controller import Controller
+from dragmesh2_jax.progress import LogLines
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.task.protocol import Env
 
@@ -36,18 +38,24 @@ def robustness(records: list[dict], modes: list[str]) -> dict:
     return out
 
 
-def evaluate(task: Env, controller: Controller, protocol: EvalProtocol) -> dict:
+def evaluate(task: Env, controller: Controller, protocol: EvalProtocol, progress: bool = False) -> dict:
     """Every (damping, mode) cell of ``protocol`` on ``task`` (the protocol's task: ``protocol.task(...)``, or a
-    controller's own task with the protocol's starts)."""
+    controller's own task with the protocol's starts); ``progress``: a line to standard error while the rollout
+    compiles and one per mode with the time left."""
     if task.config.reset_noise != protocol.starts:
         raise ValueError("evaluate needs the protocol's starts (build the task with protocol.task(task))")
     dampings = list(protocol.dampings)
     records = []
-    for m in protocol.modes:
+    lines = LogLines("evaluate", len(protocol.modes), enabled=progress, terminal=True)
+    if progress:
+        print(f"evaluate: compiling the rollout ({len(dampings)} dampings x {protocol.episodes} episodes per mode)",
+              file=sys.stderr, flush=True)
+    for i, m in enumerate(protocol.modes):
         key = None if controller.key is None else (controller.key, m)
         result = rollout(task, controller.make_policy(m == "det"), controller.params, dampings, protocol.episodes,
                          protocol.seed, controller.controls, key=key)
         records += [{**r, "mode": m} for r in cells(result, dampings, protocol.episodes)]
+        lines(i + 1, f"mode {m} ({i + 1}/{len(protocol.modes)})")
     return {"cells": records, "robustness": robustness(records, list(protocol.modes)),
             "object_id": task.object_id, "method": controller.name, "backend": task.engine,
             "protocol": dataclasses.asdict(protocol)}

@@ -41,7 +41,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask
-from dragmesh2_jax.task.playground import PullEnv, step_metrics
+from dragmesh2_jax.task.playground import PullEnv, jax_compat, step_metrics
 from dragmesh2_jax.task.protocol import State as TaskState
 from dragmesh2_jax.task.protocol import observation_spec
 from dragmesh2_jax.trajectory.schema import Trajectory
@@ -50,18 +50,6 @@ from dragmesh2_jax.trajectory.schema import Trajectory
 ENV_NAME = "dragmesh2_pull"
 #: The observations the brax env offers (see the module's text).
 OBSERVATIONS = ("history", "state")
-
-
-def _device_put_replicated(x: Any, devices: list) -> Any:
-    """``x`` stacked once per device (``pmap`` places the copies): what ``jax.device_put_replicated`` did."""
-    return jax.tree.map(lambda a: jnp.stack([jnp.asarray(a)] * len(devices)), x)
-
-
-def jax_compat() -> None:
-    """brax 0.14.2 (the newest release) still calls ``jax.device_put_replicated``, which jax 0.10 removed: put it
-    back, so that brax's trainers run on a brax env of ours however it was made."""
-    if not hasattr(jax, "device_put_replicated"):
-        jax.device_put_replicated = _device_put_replicated
 
 
 class BraxPullEnv(Env):

@@ -16,21 +16,22 @@ What it offers, as Playground's envs do:
     envs take an ``ml_collections`` config; ours stays the frozen dataclass every run records, so a setting has one
     name and one check.
 
-The observation (``obs``, a dict: each consumer takes what it may, as ``task/protocol.Obs``):
-  ``state``      (S,)    s_t, the policy's state input (S = 120, ``task/env.py`` for the layout);
-  ``history``    (L, T)  H_t, the contact-history window PICA's encoder reads: L = ``history_len`` (16) tokens
-                         [e_t, a_{t-1}] of T = 102 (124 with ``force_obs``), oldest first;
-  ``aux``        (4,)    y_t, the auxiliary targets: a training target, never a policy input;
-  ``privileged`` (P,)    what only an asymmetric critic may see (damping and friction multipliers, contact load).
-brax's stock networks read one flat vector per key and its observation normaliser one per world, so a 2-D
-``history`` does not go through ``brax.training.agents.ppo.train``: train brax's PPO on the brax env
-(``task/brax_env.py``, whose ``observation="history"`` flattens [s_t, H_t] into one vector).
+The observation (``obs``, a dict of flat vectors, Playground's form: brax's networks and observation normaliser read
+one vector per key and world; each consumer takes what it may, as ``task/protocol.Obs``):
+  ``state``      (S,)     s_t, the policy's state input (S = 120, ``task/env.py`` for the layout);
+  ``history``    (L * T,) H_t flattened, the contact-history window PICA's encoder reads (``env.history_shape`` is
+                          (L, T)): L = ``history_len`` (16) tokens [e_t, a_{t-1}] of T = 102 (124 with ``force_obs``),
+                          oldest first;
+  ``aux``        (4,)     y_t, the auxiliary targets: a training target, never a policy input;
+  ``privileged`` (P,)     what only an asymmetric critic may see (damping and friction multipliers, contact load).
+Train brax's PPO on it as Playground does: ``ppo.train(env, wrap_env_fn=wrap_for_brax_training, ...)`` with a
+network factory that names the keys it reads (``policy_obs_key="state"``, ``value_obs_key="privileged"``).
 
 Where it differs from Playground, and why:
-  * ``data`` is the task's whole :class:`~dragmesh2_jax.task.protocol.State`, not an ``mjx.Data``: Playground's
-    auto-reset (its ``BraxAutoResetWrapper``) restores only ``data`` and ``obs`` where an episode ends, so everything
-    an episode carries (the history ring, the step counter, the randomised multipliers) must live there. The physics
-    is ``data.physics`` (an ``mjx.Data`` on MJX, a handle into the C engine's worlds on the C engine).
+  * ``data`` is the task's whole :class:`~dragmesh2_jax.task.protocol.State`, not an ``mjx.Data``: an auto-reset
+    as Playground's (:func:`wrap_for_brax_training`) restores only ``data`` and ``obs`` where an episode ends, so
+    everything an episode carries (the history ring, the step counter, the randomised multipliers) must live there.
+    The physics is ``data.physics`` (an ``mjx.Data`` on MJX, a handle into the C engine's worlds on the C engine).
   * ``done`` is the task's termination (success, detachment, non-finite physics), as a float. The time limit is the
     task's ``episode_length``: the task reports it in ``info["time_out"]`` and in ``data.truncated``, not in ``done``,
     so that brax's ``EpisodeWrapper`` (given ``episode_length=env.episode_length``) marks it as a truncation and
@@ -50,6 +51,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import mujoco
+from brax.envs.wrappers import training as brax_training
 from flax import struct
 
 from dragmesh2_jax.assets.procedural import default_object
@@ -58,7 +60,7 @@ from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig, apply_overrides
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.task.load import task_of
-from dragmesh2_jax.task.protocol import Obs
+from dragmesh2_jax.task.protocol import Obs, observation_spec
 from dragmesh2_jax.task.protocol import State as TaskState
 from dragmesh2_jax.task.rewards import TERM_PREFIX
 from dragmesh2_jax.trajectory.schema import Trajectory
@@ -81,14 +83,28 @@ class State:
 
 
 def observation(obs: Obs) -> dict[str, jax.Array]:
-    """The env's dict observation of the task's :class:`Obs` (its network inputs and targets, not its step count)."""
-    return {"state": obs.state, "history": obs.history, "aux": obs.aux, "privileged": obs.privileged}
+    """The env's dict observation of the task's :class:`Obs` (its network inputs and targets, not its step count),
+    one flat vector per key."""
+    return {"state": obs.state, "history": obs.history.reshape(*obs.history.shape[:-2], -1), "aux": obs.aux,
+            "privileged": obs.privileged}
 
 
 def step_metrics(s: TaskState) -> dict[str, jax.Array]:
     """What an env reports of a task step for its episode wrappers to sum: the events and the reward's terms."""
     return {m: s.metrics[m] for m in EPISODE_METRICS} | {k: v for k, v in s.metrics.items()
                                                          if k.startswith(TERM_PREFIX)}
+
+
+def _device_put_replicated(x: Any, devices: list) -> Any:
+    """``x`` stacked once per device (``pmap`` places the copies): what ``jax.device_put_replicated`` did."""
+    return jax.tree.map(lambda a: jnp.stack([jnp.asarray(a)] * len(devices)), x)
+
+
+def jax_compat() -> None:
+    """brax 0.14.2 (the newest release) still calls ``jax.device_put_replicated``, which jax 0.10 removed: put it
+    back, so that brax's trainers run on a brax env of ours however it was made."""
+    if not hasattr(jax, "device_put_replicated"):
+        jax.device_put_replicated = _device_put_replicated
 
 
 def default_config() -> TaskConfig:
@@ -142,6 +158,12 @@ class PullEnv:
         return self._obs_shape
 
     @property
+    def history_shape(self) -> tuple[int, int]:
+        """(L, T): the tokens of the history window and each token's size (``obs["history"]`` is it flattened)."""
+        length, token = observation_spec(self.task).history.shape
+        return int(length), int(token)
+
+    @property
     def action_size(self) -> int:
         return self.task.action_size
 
@@ -193,3 +215,38 @@ class PullEnv:
         kept, since a step must return the pytree it was given."""
         return State(data=s, obs=observation(s.obs), reward=s.reward, done=s.terminated.astype(jnp.float32),
                      metrics={**metrics, **step_metrics(s)}, info={**info, "time_out": s.truncated.astype(jnp.float32)})
+
+
+class _AutoReset(brax_training.Wrapper):
+    """Playground's auto-reset for an env whose state is ``data``: a world whose episode ended (``done``, or the
+    time limit of brax's ``EpisodeWrapper`` below it) starts again from its first state (its first observation and
+    whole task state, history and multipliers included)."""
+
+    def reset(self, rng: jax.Array) -> State:
+        state = self.env.reset(rng)
+        state.info["first_data"], state.info["first_obs"] = state.data, state.obs
+        return state
+
+    def step(self, state: State, action: jax.Array) -> State:
+        if "steps" in state.info:  # brax's EpisodeWrapper counts from 0 again in a restarted world
+            state.info["steps"] = jnp.where(state.done, 0, state.info["steps"])
+        state = self.env.step(state.replace(done=jnp.zeros_like(state.done)), action)
+        done = state.done
+
+        def where_done(first: jax.Array, now: jax.Array) -> jax.Array:
+            return jnp.where(done.reshape(done.shape + (1,) * (now.ndim - done.ndim)), first, now)
+
+        return state.replace(data=jax.tree.map(where_done, state.info["first_data"], state.data),
+                             obs=jax.tree.map(where_done, state.info["first_obs"], state.obs))
+
+
+def wrap_for_brax_training(env: PullEnv, episode_length: int = 1000, action_repeat: int = 1,
+                           randomization_fn: Any = None) -> brax_training.Wrapper:
+    """The ``wrap_env_fn`` for brax's ``ppo.train`` (Playground's ``wrap_for_brax_training``): brax's time limit and
+    batch over the env, then an auto-reset that knows the state's ``data``. The damping and friction randomisation
+    is the task's own (drawn at each reset), so ``randomization_fn`` (brax's per-model one) is refused."""
+    if randomization_fn is not None:
+        raise DragMeshError("the task randomises its worlds itself (TaskConfig.damping_range, friction_range): "
+                            "give no randomization_fn")
+    jax_compat()
+    return _AutoReset(brax_training.VmapWrapper(brax_training.EpisodeWrapper(env, episode_length, action_repeat)))

@@ -130,6 +130,18 @@ def test_evaluate_needs_the_protocols_starts(drawer_task):
     assert [cell["damping"] for cell in res["cells"]] == [1.0, 2.0, 4.0] and res["protocol"]["episodes"] == 2
 
 
+def test_evaluate_says_it_compiles_and_how_long_is_left(drawer_task, capsys):
+    c = Controller("pull", lambda det: _pull_policy(drawer_task, 0.0), jnp.float32(1.0))
+    protocol = dataclasses.replace(PAPER, episodes=2, dampings=(1.0,))
+    evaluate(protocol.task(drawer_task), c, protocol, progress=True)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("evaluate: compiling the rollout (1 dampings x 2 episodes per mode)")
+    assert [line.split("  ")[0] for line in lines[1:]] == ["evaluate: mode det (1/2)", "evaluate: mode stoch (2/2)"]
+    assert all("left ~" in line for line in lines[1:])
+    evaluate(protocol.task(drawer_task), c, protocol)
+    assert capsys.readouterr().err == ""  # quiet unless asked
+
+
 @pytest.fixture(scope="module")
 def door_task():
     """The packaged procedural door from the expert's exact grasp (C engine)."""

@@ -51,8 +51,10 @@ def test_a_trained_runs_record_curves_and_evaluation(tmp_path):
 
 
 def test_brax_ppo_trains_the_task_through_its_playground_and_brax_envs_and_plots_the_reward(tmp_path):
-    _, playground, registered, train, plot = run_notebook("brax_ppo.ipynb", tmp_path)
-    assert "'history': (16, 102)" in playground["text"] and "action: 51" in playground["text"]
+    _, playground, registered, train, train_playground, plot = run_notebook("brax_ppo.ipynb", tmp_path)
+    assert "'history': (1632,)" in playground["text"] and "(tokens, token size): (16, 102)" in playground["text"]
+    assert "action: 51" in playground["text"]
     assert "brax observation: 1752 = 120 + (16, 102)" in registered["text"]
-    assert train["text"].count("evaluation return") == 3 and "success rate of the last evaluation" in train["text"]
+    for env, text in (("brax env", train["text"]), ("Playground env", train_playground["text"])):
+        assert text.count(f"{env}: ") == 3 and "success rate of the last evaluation" in text
     assert plot["png"]
