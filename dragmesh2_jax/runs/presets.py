@@ -168,13 +168,6 @@ METHODS = {m.name: m for m in (
     Method("pica_flat", "ablation w/o GLA: physical signals with the flat-history encoder",
            {"network.encoder": "flat"},
            status="paper", evidence="paper Table 3; results/archive.md §2"),
-    Method("pica_force", "PICA + contact-load observation (wrist F/T, palm/phalanx touch)", FORCE_OBS,
-           status="experimental", evidence="never trained to a result"),
-    Method("pica_priv", "PICA + privileged critic (damping, friction, contact load)", {"network.critic": "privileged"},
-           status="experimental", evidence="never trained to a result"),
-    Method("pica_d14", "PICA with damping randomised over [1, 4] (reference drand14)",
-           {"task.damping_range": (1.0, 4.0)},
-           status="experimental", evidence="never trained to a result"),
     Method("pica_load", "load-aware PICA: contact-load observation, privileged critic, damping [1, 4], perturbed "
            "starts", {**FORCE_OBS, "network.critic": "privileged", "task.damping_range": (1.0, 4.0),
                      "task.reset_noise": ResetNoise()},
