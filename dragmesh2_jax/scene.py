@@ -78,6 +78,10 @@ class SceneConfig:
     """kg/m^2 (thin-shell mass of the target part)"""
     friction: float = 1.5
     """object sliding friction"""
+    object_contact: Literal["hand", "mujoco"] = "mujoco"
+    """the object's contact softness: "mujoco", MuJoCo's defaults (solref 0.02 s), which a hand-object contact
+    averages with the hand's (0.014 s: 2.8x softer than the hand's, so the drives press the hand 4-9 mm into a handle);
+    "hand", the hand's (``hand.contact_timeconst`` and solimp): about 1 mm (RESULTS.md, penetration)"""
     collide: Literal["target", "all"] = "target"
     """which object pieces collide with the hand: the target part's near its handle, or every piece"""
     collision_radius: float = 0.2
@@ -191,10 +195,10 @@ def _fmt(v) -> str:
 
 
 def _piece_geom(parent: ET.Element, asset: ET.Element, piece: ConvexPiece, name: str, scale: float, collide: bool,
-                friction: float, rgba: str) -> None:
+                contact: dict[str, str], rgba: str) -> None:
     attrs = {"name": name, "rgba": rgba, "group": "2" if collide else "0"}
     if collide:
-        attrs.update(contype="2", conaffinity="1", condim="3", friction=f"{friction} 0.02 0.001")
+        attrs.update(contype="2", conaffinity="1", condim="3", **contact)
     else:
         attrs.update(contype="0", conaffinity="0")
     attrs["mass"] = "0"
@@ -208,7 +212,7 @@ def _piece_geom(parent: ET.Element, asset: ET.Element, piece: ConvexPiece, name:
     ET.SubElement(parent, "geom", **attrs)
 
 
-def _handle_box_geom(parent: ET.Element, frame: HandleFrame, scale: float, friction: float) -> None:
+def _handle_box_geom(parent: ET.Element, frame: HandleFrame, scale: float, contact: dict[str, str]) -> None:
     """The handle's annotated box (the graspable side of a knob annotated through the panel) as a collision box."""
     rot = np.stack([frame.long_axis, frame.short_axis, frame.normal], axis=1)
     if np.linalg.det(rot) < 0:
@@ -216,8 +220,8 @@ def _handle_box_geom(parent: ET.Element, frame: HandleFrame, scale: float, frict
     q = Rotation.from_matrix(rot).as_quat()  # xyzw
     ET.SubElement(parent, "geom", name="handle_box", type="box", pos=_fmt(scale * frame.centre),
                   size=_fmt(scale * np.maximum([frame.length, frame.width, frame.thickness], 1e-3) / 2),
-                  quat=_fmt([q[3], q[0], q[1], q[2]]), contype="2", conaffinity="1", condim="3",
-                  friction=f"{friction} 0.02 0.001", mass="0", rgba=HANDLE_RGBA, group="2")
+                  quat=_fmt([q[3], q[0], q[1], q[2]]), contype="2", conaffinity="1", condim="3", mass="0",
+                  rgba=HANDLE_RGBA, group="2", **contact)
 
 
 def _piece_near(piece: ConvexPiece, handle_box: np.ndarray, radius: float, scale: float) -> bool:
@@ -253,6 +257,9 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     world.append(hand_body)
 
     obj_body = ET.SubElement(world, "body", name="object", pos=_fmt(pos))
+    contact = {"friction": f"{config.friction} 0.02 0.001"}
+    if config.object_contact == "hand":  # else MuJoCo's defaults, which a contact averages with the hand's
+        contact.update(solref=f"{config.hand.contact_timeconst} 1", solimp=hand_lib.CONTACT_SOLIMP)
     handle_links = {p.link for p in obj.parts if p.is_handle}
     n_collide, max_verts, n_pieces, handle_collides = 0, 0, 0, False
     target_pieces: list[ConvexPiece] = []
@@ -275,8 +282,8 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
                 in_target and _piece_near(piece, handle_box, config.collision_radius, s))
             rgba = ((HANDLE_RGBA if in_target else OTHER_HANDLE_RGBA) if name in handle_links
                     else PART_RGBA if in_target else BODY_RGBA)
-            _piece_geom(target_body if in_target else obj_body, asset, piece, f"{name}_{k}", s, collide,
-                        config.friction, rgba)
+            _piece_geom(target_body if in_target else obj_body, asset, piece, f"{name}_{k}", s, collide, contact,
+                        rgba)
             n_collide += collide
             handle_collides |= collide and name == handle_obj.link
             n_pieces += 1
@@ -287,7 +294,7 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
         raise DragMeshError(f"{obj.folder}: target part {t.part.link} has no geometry")
     handle_geometry = "mesh"
     if handle_obj.source == "handle" and not handle_collides:  # a handle link without a mesh: its annotated box
-        _handle_box_geom(target_body, handle_obj, s, config.friction)
+        _handle_box_geom(target_body, handle_obj, s, contact)
         handle_geometry, n_collide = "annotated box", n_collide + 1
     if n_collide == 0:
         raise DragMeshError(f"{obj.folder}: no collision geometry within {config.collision_radius} m of the handle")

@@ -156,6 +156,8 @@ def fingertip_site_names(side: str = "right") -> tuple[str, ...]:
     return tuple(f"{p}_{f}_tip" for f in FINGERS)
 
 
+#: The hand's contact impedance (MuJoCo solimp: dmin, dmax, width in m): 0.95 at contact, 0.99 from 1 mm deep.
+CONTACT_SOLIMP = "0.95 0.99 0.001"
 #: Touch sites enclose each hand geom by this margin (m), so a touch sensor sums that geom's contact normal forces.
 TOUCH_MARGIN = 0.002
 
@@ -235,7 +237,7 @@ def build_hand_mjcf(config: HandConfig = HandConfig()) -> tuple[ET.Element, ET.E
     ranges = dof_ranges(config)
     rgba = _fmt(config.rgba)
     geom_common = {"contype": "1", "conaffinity": "2", "condim": "3", "friction": f"{config.friction} 0.02 0.001",
-                   "solref": f"{config.contact_timeconst} 1", "solimp": "0.95 0.99 0.001", "rgba": rgba, "group": "1"}
+                   "solref": f"{config.contact_timeconst} 1", "solimp": CONTACT_SOLIMP, "rgba": rgba, "group": "1"}
 
     wrist = ET.Element("body", name=wrist_body_name(side), pos="0 0 0", gravcomp="1")
     # The six virtual DoFs are world-frame motions: never mirrored, so wrist_rpy means the same for both hands.

@@ -88,24 +88,44 @@ def probe(scene: Scene, starts: list[Start], targets: np.ndarray, substeps: int,
     return most[0], most[1]
 
 
-def peak_load(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settle_substeps: int, until: float,
-              damping: float = 1.0) -> float:
-    """The expert's peak wrist load (N): ``targets`` (one hand PD target per control step) replayed on the C engine at
-    ``damping`` x nominal from ``start``, the wrist force read after each control step, up to the step the target
-    joint reaches ``until`` (an episode's success), as ``evaluation.envelope`` reads the expert at its own pace."""
+@dataclass(frozen=True)
+class Replay:
+    """What a replay of hand PD targets did (``replay``): the peak wrist load (N), the deepest hand-object
+    penetration (m) after any control step, and the control steps to ``until`` (None: not reached)."""
+
+    peak_load: float
+    deepest: float
+    steps: int | None
+
+
+def replay(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settle_substeps: int, until: float,
+           damping: float = 1.0) -> Replay:
+    """``targets`` (one hand PD target per control step) replayed on the C engine at ``damping`` x nominal from
+    ``start`` (settled as a reset settles it), read after each control step up to the step the target joint reaches
+    ``until`` (an episode's success), as ``evaluation.envelope`` reads the expert at its own pace."""
     m = copy.copy(scene.model)
     m.dof_damping[scene.ids.target_dof] = scene.model.dof_damping[scene.ids.target_dof] * damping
     d = scene.settled_state(*start, settle_substeps)  # settled at nominal damping, as a reset
     force = m.sensor(FORCE_SENSORS[0]).adr[0] + np.arange(3)
-    peak = 0.0
-    for target in targets:
+    hand = np.zeros(m.ngeom, bool)
+    hand[scene.ids.hand_geoms] = True
+    peak, deepest = 0.0, 0.0
+    for k, target in enumerate(targets):
         d.ctrl[scene.ids.hand_actuators] = target
         for _ in range(substeps):
             mujoco.mj_step(m, d)
         peak = max(peak, float(np.linalg.norm(d.sensordata[force])))
+        c = d.contact  # the active contacts' fields as arrays
+        deepest = max(deepest, float(-np.min(c.dist[hand[c.geom1] != hand[c.geom2]], initial=0.0)))
         if d.qpos[scene.ids.target_qpos] >= until:
-            break
-    return peak
+            return Replay(peak, deepest, k + 1)
+    return Replay(peak, deepest, None)
+
+
+def peak_load(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settle_substeps: int, until: float,
+              damping: float = 1.0) -> float:
+    """The expert's peak wrist load (N) of :func:`replay`."""
+    return replay(scene, start, targets, substeps, settle_substeps, until, damping).peak_load
 
 
 def pairs(scene: Scene) -> list[tuple[str, str]]:

@@ -95,6 +95,10 @@ MEASURES = get_args(Measure)
 #: grasp (``grasp``) or from the reset bank's start the world's episode began at (``start``: a start from which the
 #: expert itself pulls harder is held to what the expert pulls there, so the residual's zero keeps the bound).
 ExpertUnit = Literal["grasp", "start"]
+#: The expert's grasp (``expert_grasp``): "planned", the pose the plan puts inside the handle (up to 33 mm for the
+#: wrist, 1 rad for the fingers), which the drives press the hand into; "seated", where the handle stopped that pose,
+#: the wrist's target there and the fingers' ``grip_closure`` past it (generator 1.2; RESULTS.md, penetration).
+ExpertGrasp = Literal["seated", "planned"]
 EXPERT_UNITS = get_args(ExpertUnit)
 #: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
 #: grasp and the wrist's rotation keep the policy's whole range).
@@ -303,6 +307,11 @@ class TaskConfig:
     """beyond the paper, the channels residual_scale narrows (RESIDUAL_SCOPES' comment)"""
     expert_load_unit: ExpertUnit = "grasp"
     """beyond the paper, the unit of the relative_load measure (EXPERT_UNITS' comment)"""
+    expert_grasp: ExpertGrasp = "planned"
+    """beyond the paper, the grasp the generated trajectory holds the handle with (ExpertGrasp's comment)"""
+    grip_closure: float = 0.04
+    """rad, under the seated grasp: how far past where the handle stopped them the fingers' targets close (the grip's
+    force, at most the finger drives' limit; below alpha, so that the expert's own action stays inside its bound)"""
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @staticmethod
@@ -342,6 +351,8 @@ class TaskConfig:
             raise DragMeshError(f"friction_range must satisfy 0 <= lo <= hi, got {self.friction_range}")
         if self.contacts is not None and self.contacts < 1:
             raise DragMeshError(f"contacts per world must be >= 1, got {self.contacts}")
+        if not 0 <= self.grip_closure < math.inf:
+            raise DragMeshError(f"grip_closure must be finite and >= 0 rad, got {self.grip_closure}")
         if not 0 < self.residual_scale <= 1 or (self.residual_scale != 1 and not self.expert_prior):
             raise DragMeshError(f"residual_scale must be in (0, 1] and below 1 only with expert_prior, got "
                                 f"{self.residual_scale}")

@@ -10,7 +10,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask, trajectory_joint
-from dragmesh2_jax.trajectory.generator import generate
+from dragmesh2_jax.trajectory.generator import SEAT_DEPTH, GeneratorParams, generate
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory
 
 
@@ -24,6 +24,12 @@ def adopt_trajectory_target(obj, traj: Trajectory):
     return obj.with_target(moved)
 
 
+def generator_params(config: TaskConfig) -> GeneratorParams:
+    """How the task's trajectory is generated where none is given: its expert grasp."""
+    return GeneratorParams(seat_depth=SEAT_DEPTH if config.expert_grasp == "seated" else None,
+                           grip_closure=config.grip_closure)
+
+
 def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskConfig,
             scene_config: SceneConfig = SceneConfig()) -> PullTask:
     """Object + trajectory (a file, a trajectory, or None: generated) -> the task, in ``scene_config``."""
@@ -34,4 +40,4 @@ def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskCo
     if traj is not None:
         obj = adopt_trajectory_target(obj, traj)
     scene = build_scene(obj, scene_config)
-    return PullTask(scene, generate(obj, scene=scene) if traj is None else traj, config)
+    return PullTask(scene, generate(obj, generator_params(config), scene=scene) if traj is None else traj, config)

@@ -14,12 +14,11 @@ from dragmesh2_jax.trajectory.schema import RHO, Trajectory
 
 def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start: Start | None = None,
                  rho: float = RHO) -> list[Start]:
-    """The start states of the task: ``start`` (default: the expert grasp, the trajectory's drag-start frame), or
+    """The start states of the task: ``start`` (default: the expert grasp, ``Trajectory.start_hand_q``), or
     ``noise.bank`` seeded perturbations of it (truncated normal on the wrist pose and, for the hand, the active
     finger joints; the object joint opened by a uniform fraction of the distance to q_done at ``rho``)."""
     if start is None:
-        frame = traj.frames[traj.drag_start]
-        start = frame.hand_q, frame.joint_positions[traj.target_index]
+        start = traj.start_hand_q, traj.frames[traj.drag_start].joint_positions[traj.target_index]
     hand_q, obj_q = np.asarray(start[0], np.float64), float(start[1])
     if noise is None:
         return [(hand_q, obj_q)]

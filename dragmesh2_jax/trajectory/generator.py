@@ -16,6 +16,10 @@ fingertip grasp that merely touches the bar passes the rest of the gate, because
 fingers around it as it pulls, but a policy, whose zero action leaves the fingers where they are, loses such a
 handle to undirected exploration within a few dozen steps and learns not to pull (RESULTS.md §1, the drawer
 regression). When no passing placement grips, the first that passes is kept and the header says so.
+
+A grasp may be seated (``GeneratorParams.seat_depth``): the planned pose lies inside the handle, so each placement's
+plan is executed once, the hand taken where the handle stopped it (moved out where it is deeper than the seat depth:
+``grasp.seat``), and the plan executed again with the wrist's target there and the fingers' ``grip_closure`` past it.
 """
 
 from __future__ import annotations
@@ -42,7 +46,11 @@ from dragmesh2_jax.trajectory.schema import Frame, Trajectory, read_trajectory, 
 
 #: Every 2 pi shift of three Euler angles (-1, 0, +1 turns each), in the order the nearest one is picked by.
 EULER_SHIFTS = 2 * np.pi * np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=np.float64)
-GENERATOR_VERSION = "1.1"  # 1.1: the grip at the drag start picks among the passing placements
+GENERATOR_VERSION = "1.2"  # 1.1: the grip at the drag start picks among the passing placements; 1.2: seated grasps
+#: The seated grasp's depth (m): deeper than this, the hand is moved out of the handle (``grasp.seat``); under the
+#: hand's object contacts the grasp the handle stopped is 0.7-1.1 mm deep on the packaged objects and 45261, so it
+#: stays where the handle stopped it.
+SEAT_DEPTH = 0.002
 
 
 @dataclass(frozen=True)
@@ -83,6 +91,13 @@ class GeneratorParams:
     # on the bar 3.7 N; the grasps policies learn from 30-220 N (RESULTS.md §1)
     min_grip_force: float = 10.0  # N
     grip_margin: float = 0.005  # m
+    # the seated grasp: the planned grasp executed, the hand then moved out of the handle where it is deeper than
+    # ``seat_depth`` (``grasp.seat``), and the plan executed again to that seat with finger targets ``grip_closure``
+    # rad past it: the planned pose lies inside the handle (its wrist up to 33 mm, its fingers up to 1 rad past where
+    # the handle stops them), so the drives press the hand into it with up to 100 N (RESULTS.md, penetration);
+    # None: that planned grasp (generator 1.1), the default: the seated one does not yet open small handles
+    seat_depth: float | None = None  # m; SEAT_DEPTH seats it
+    grip_closure: float = 0.04  # rad
 
     def __post_init__(self):
         for k in ("approach_frames", "grasp_frames", "drag_frames", "release_frames", "substeps"):
@@ -125,8 +140,11 @@ def drag_extent(scene: Scene, params: GeneratorParams) -> float:
         params.max_drag_distance, params.drag_fraction * (hi - lo))
 
 
-def make_plan(scene: Scene, params: GeneratorParams, placement: grasp.GraspParams) -> Plan:
-    """The hand PD targets of every frame (Algorithm 1), in world coordinates."""
+def make_plan(scene: Scene, params: GeneratorParams, placement: grasp.GraspParams,
+              seated: np.ndarray | None = None) -> Plan:
+    """The hand PD targets of every frame (Algorithm 1), in world coordinates; ``seated``: the grasp where the hand
+    touches the handle (``grasp.seat``), which the wrist goes to and the fingers grip just past
+    (``params.grip_closure``), instead of the planned pose that the handle stops short."""
     obj, h = scene.obj, scene.handle
     t = obj.target
     s, pos = scene.config.scale, np.asarray(scene.config.object_pos)
@@ -140,9 +158,13 @@ def make_plan(scene: Scene, params: GeneratorParams, placement: grasp.GraspParam
         away /= max(np.linalg.norm(away), 1e-9)
     R_w = grasp.wrist_orientation(h, open_dir, away, flip=placement.flip)
     palm = grasp.palm_target(h, R_w, placement)
+    q_open, q_pre, q_grasp = grasp.open_pose(), grasp.preshape_pose(), grasp.grasp_pose(h.thickness)
+    if seated is not None:
+        R_w = hand_lib.matrix_from_wrist_euler(seated[3:6])
+        palm = seated[:3] + R_w @ np.asarray(hand_lib.PALM_OFFSET)
+        q_grasp = grasp.gripping(seated[6:], params.grip_closure)
     x_w = grasp.wrist_position(palm, R_w)
     x_pre = x_w + params.delta * h.normal
-    q_open, q_pre, q_grasp = grasp.open_pose(), grasp.preshape_pose(), grasp.grasp_pose(h.thickness)
     extent = drag_extent(scene, params)
     plan = Plan()
     rpy = continuous_euler(R_w, None)
@@ -256,10 +278,12 @@ def handle_grip(scene: Scene, d: mujoco.MjData, margin: float) -> tuple[int, flo
 
 
 def start_grip(scene: Scene, frames: list[Frame], params: GeneratorParams) -> tuple[int, float]:
-    """:func:`handle_grip` in the state the task resets to: the drag-start frame, settled as a reset settles it."""
-    traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)}})
+    """:func:`handle_grip` in the state the task resets to: the drag-start frame (a seated grasp's fingers at their
+    grip: ``Trajectory.start_hand_q``), settled as a reset settles it."""
+    traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)},
+                                             **_grip_header(frames, params)})
     frame = frames[traj.drag_start]
-    d = scene.settled_state(np.asarray(frame.hand_q), frame.joint_positions[traj.target_index], RESET_SETTLE_SUBSTEPS)
+    d = scene.settled_state(traj.start_hand_q, frame.joint_positions[traj.target_index], RESET_SETTLE_SUBSTEPS)
     return handle_grip(scene, d, params.grip_margin)
 
 
@@ -302,6 +326,16 @@ def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorPar
             "hand_within_limits": bool(within), "reasons": reasons}
 
 
+def _grip_header(frames: list[Frame], params: GeneratorParams) -> dict:
+    """A seated grasp's finger targets at the drag start: its fingers there closed ``grip_closure`` further (the
+    header's ``grip``: a task starts its fingers there, so that a hand whose targets stay put grips); nothing for the
+    planned grasp, whose fingers start where they stopped."""
+    if params.seat_depth is None:
+        return {}
+    start = frames[Trajectory(tuple(frames), header={}).drag_start]
+    return {"grip": [float(x) for x in grasp.gripping(np.asarray(start.finger_dofs), params.grip_closure)]}
+
+
 def _target_index(scene: Scene) -> int:
     names = [j.name for j in scene.obj.movable_joints]
     return names.index(scene.obj.target.joint.name)
@@ -342,6 +376,11 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
     best = None
     for k, placement in enumerate(params.placements):
         frames, stats = execute(scene, make_plan(scene, params, placement), params)
+        if params.seat_depth is not None:
+            start = frames[Trajectory(tuple(frames), header={}).drag_start]
+            seated = grasp.seat(scene, np.asarray(start.hand_q), start.joint_positions[_target_index(scene)],
+                                params.seat_depth)
+            frames, stats = execute(scene, make_plan(scene, params, placement, seated), params)
         q = quality(scene, frames, stats, params, extent)
         attempts.append({"placement": k, **{x: q[x] for x in ("passed", "grip", "handle_contacts", "handle_force_n",
                                                                  "achieved_opening", "max_penetration_m",
@@ -371,7 +410,7 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
                   "frame_dt": scene.config.timestep * params.substeps, "damping": scene.config.damping},
         "generator": {"version": GENERATOR_VERSION, "params": _jsonable(asdict(params)), "placement": k,
                       "placement_params": asdict(placement), "attempts": attempts},
-        "quality": q, "wall_s": round(time.time() - t0, 3),
+        "quality": q, "wall_s": round(time.time() - t0, 3), **_grip_header(frames, params),
         "hand": {"side": scene.config.hand.side, "dof_names": list(hand_lib.dof_names(scene.config.hand.side))},
     }
     return Trajectory(frames=tuple(frames), header=header)

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from dragmesh2_jax.assets import hand as hand_lib
 from dragmesh2_jax.assets.target import HandleFrame
+from dragmesh2_jax.scene import Scene
 
 # Finger DoF indices within the 45 finger DoFs (action index - 6): flexion is each segment's x hinge.
 MCP = (0, 9, 18, 27)  # Index1_x, Middle1_x, Pinky1_x, Ring1_x
@@ -100,3 +102,71 @@ def grasp_pose(thickness: float) -> np.ndarray:
     q[THUMB_ABD], q[THUMB_FLEX], q[THUMB_ROT] = 0.35, 1.2 + 8 * r, -0.45
     q[THUMB_PIP], q[THUMB_DIP] = -0.45 - 3 * r, -0.60 - 3 * r
     return _clip(q)
+
+
+#: Joints that close the grip (indices into the 45 finger DoFs): the four fingers' flexion and the thumb's.
+CLOSING = (*MCP, *PIP, *DIP, THUMB_FLEX, THUMB_PIP, THUMB_DIP)
+#: The direction each of them closes in (:func:`grasp_pose`: the thumb's distal joints close negative).
+CLOSING_SIGN = (1.0,) * 13 + (-1.0, -1.0)
+#: The kinematic seat's steps: the hand backs out along the handle's normal by SEAT_STEP_M, a finger opens by
+#: SEAT_OPEN of its angles, until nothing is deeper than the seat depth (at most SEAT_ITERATIONS steps each).
+SEAT_STEP_M, SEAT_OPEN, SEAT_ITERATIONS = 0.0005, 0.02, 200
+
+
+def _deepest(scene: Scene, d: mujoco.MjData, geoms: set[int]) -> float:
+    """The deepest penetration (m) of ``geoms`` (hand geoms) into the object in ``d``'s contacts."""
+    hand = set(scene.ids.hand_geoms.tolist())
+    depth = 0.0
+    for c in d.contact[: d.ncon]:
+        if (c.geom1 in hand) != (c.geom2 in hand) and (c.geom1 in geoms or c.geom2 in geoms):
+            depth = max(depth, -float(c.dist))
+    return depth
+
+
+def seat(scene: Scene, hand_q: np.ndarray, obj_q: float, depth: float) -> np.ndarray:
+    """The hand configuration ``hand_q`` (a grasp the physics pressed into the handle) moved out of the object,
+    kinematically, until no hand geom is more than ``depth`` deep: the whole hand along the handle's outward normal
+    until the palm and the proximal phalanges (which the fingers cannot move out) are out, then each finger opened
+    (its angles scaled toward the open hand) until none of its phalanges is, then the whole hand again for what is
+    left. What the fingers then hold is contact, not overlap: a PD target just past it grips with a force its
+    offset bounds."""
+    m, ids = scene.model, scene.ids
+    d = mujoco.MjData(m)
+    q = np.asarray(hand_q, np.float64).copy()
+    d.qpos[ids.target_qpos] = obj_q
+    p = hand_lib.prefix(scene.config.hand.side)
+    geom = lambda name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731
+
+    def depth_of(geoms: set[int]) -> float:
+        d.qpos[ids.hand_qpos] = q
+        mujoco.mj_forward(m, d)
+        return _deepest(scene, d, geoms)
+
+    def out(geoms: set[int]) -> None:
+        for _ in range(SEAT_ITERATIONS):
+            if depth_of(geoms) <= depth:
+                return
+            q[:3] += SEAT_STEP_M * scene.handle.normal
+
+    out({geom(f"{p}_palm")} | {geom(f"{p}_{ph.name}_geom") for ph in hand_lib.PHALANGES if ph.name.endswith("1")})
+    for finger in hand_lib.FINGERS:
+        chain = [k for k, ph in enumerate(hand_lib.PHALANGES) if ph.name[:-1] == finger]
+        geoms = {geom(f"{p}_{hand_lib.PHALANGES[k].name}_geom") for k in chain}
+        dofs = [hand_lib.NUM_VIRTUAL + 3 * k + a for k in chain for a in range(3)]
+        for _ in range(SEAT_ITERATIONS):
+            if depth_of(geoms) <= depth:
+                break
+            q[dofs] *= 1.0 - SEAT_OPEN
+    out(set(ids.hand_geoms.tolist()))
+    return q
+
+
+def gripping(seated_fingers: np.ndarray, closure: float) -> np.ndarray:
+    """Finger PD targets ``closure`` rad past the seated fingers on every closing joint (the direction
+    :func:`grasp_pose` closes it), within the hand's limits; the other joints stay: a grip whose force the offset
+    bounds."""
+    q = np.asarray(seated_fingers, np.float64).copy()
+    closing = list(CLOSING)
+    lim = hand_lib.dof_ranges()[hand_lib.NUM_VIRTUAL:][closing]
+    q[closing] = np.clip(q[closing] + closure * np.asarray(CLOSING_SIGN), lim[:, 0], lim[:, 1])
+    return q

@@ -117,6 +117,15 @@ class Trajectory:
         return next((i for i, p in enumerate(self.phases) if p == "drag"), min(40, len(self.frames) - 1))
 
     @property
+    def start_hand_q(self) -> np.ndarray:
+        """The hand's start configuration: the drag-start frame's, its fingers at the header's ``grip`` where the
+        grasp is seated (their targets just past the handle, so that a hand whose targets stay put holds it)."""
+        q = np.asarray(self.frames[self.drag_start].hand_q, np.float64).copy()
+        if "grip" in self.header:
+            q[len(q) - len(self.header["grip"]):] = self.header["grip"]
+        return q
+
+    @property
     def q_start(self) -> float:
         return float(self.target_q[self.drag_start])
 
@@ -218,6 +227,11 @@ def parse_trajectory(data, where: str = "trajectory") -> Trajectory:
     if not any(f.phase == "drag" for f in parsed):
         raise DragMeshError(f"{where}: no drag frames (phase 'drag'): the trajectory never pulls the part, so no "
                             "grasp to start from and nothing to reach")
+    grip = header.get("grip")
+    fingers = len(parsed[0].finger_dofs)
+    if grip is not None and not (isinstance(grip, list) and len(grip) == fingers
+                                 and all(isinstance(x, int | float) and math.isfinite(x) for x in grip)):
+        raise DragMeshError(f"{where}: the header's grip must be {fingers} finite finger targets")
     return Trajectory(frames=parsed, header=header)
 
 

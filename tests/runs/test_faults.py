@@ -258,9 +258,9 @@ def test_an_evaluation_that_cannot_be_saved_is_printed_whole(run, capsys):
     out, err = capsys.readouterr()
     result = json.loads(out)
     assert [c["damping"] for c in result["cells"]] == [1.0, 2.0] and result["cells"][0]["episodes"] == 2
-    (line,) = err.strip().splitlines()
+    *progress, line = err.strip().splitlines()
     assert line.startswith("error: the evaluation was not saved") and "cannot be written" in line
-    assert not (run / "evaluations").exists()
+    assert all(p.startswith("evaluate: ") for p in progress) and not (run / "evaluations").exists()
 
 
 def test_open_keeps_its_result_when_the_run_folder_cannot_take_the_evaluation(run, tmp_path, capsys):

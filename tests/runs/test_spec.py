@@ -311,3 +311,16 @@ def test_a_format_3_record_reads_its_epochs_and_seed_into_the_schedule_and_the_n
     assert record["format"] == RECORD_FORMAT and "epochs" not in record["ppo"] and record["schedule"]["epochs"] == 200
     assert record["network"]["critic"] == "privileged" and record["versions"] == {"python": "3.11"}
     assert run.spec() == dataclasses.replace(recipe, schedule=dataclasses.replace(recipe.schedule, epochs=200))
+
+
+def test_a_format_4_record_reads_with_the_contacts_and_the_grasp_it_was_made_with():
+    """Runs recorded before the object's contacts and the expert's grasp were choices were made with MuJoCo's object
+    contacts and the planned grasp: they read back so, whatever the defaults become; a value recorded wins."""
+    record = {**RunSpec.from_record(_format_3(RECOMMENDED)).record("mujoco"), "format": 4}
+    record["scene"] = {k: v for k, v in record["scene"].items() if k != "object_contact"}
+    record["task"] = {k: v for k, v in record["task"].items() if k != "expert_grasp"}
+    old = RunSpec.from_record(record)
+    assert old.scene.object_contact == "mujoco" and old.task.expert_grasp == "planned"
+    seated = RunSpec.from_record({**record, "task": {**record["task"], "expert_grasp": "seated"}})
+    assert seated.task.expert_grasp == "seated"
+    assert RunSpec.from_record(old.record("mujoco")) == old  # written in the current format, read back whole
