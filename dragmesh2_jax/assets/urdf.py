@@ -2,7 +2,10 @@
 joints in the object frame, and a link's mesh vertices.
 
 Frames and units: the **object frame** is the URDF ``base`` frame (z-up for PartNet-Mobility, whose y-up meshes are
-rotated by the root fixed joint), unscaled, with every joint at the closed configuration (its lower limit).
+rotated by the root fixed joint), unscaled, with every joint at the closed configuration (its lower limit). The
+closed configuration is the URDF's zero pose, where GAPartNet's annotated boxes fit the meshes: a joint whose range
+ends at zero from below (closed at 0, opening towards -90 deg) is read with its axis reversed and its range negated,
+so that its lower limit is that zero pose and opening raises it, as every other joint's.
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ from dragmesh2_jax.errors import DragMeshError
 
 URDF_CANDIDATES = ("mobility_annotation_gapartnet.urdf", "mobility.urdf")
 MOVABLE = ("revolute", "prismatic", "continuous")
+#: A limit within this of zero is the zero pose (rad or m, unscaled).
+ZERO_POSE_TOL = 1e-6
 KNOWN_JOINT_TYPES = (*MOVABLE, "fixed")
 #: The largest mesh file read. The largest mesh of the GAPartNet test objects has 40 KB (45780's original-48.obj);
 #: 64 MiB, over 1500 times that, leaves room for far finer meshes, while a larger one would be loaded whole into
@@ -215,6 +220,8 @@ def parse_urdf(urdf: Path) -> tuple[dict[str, Link], tuple[Joint, ...], str]:
         lower, upper = (_limit(lim, k, jtype, where) for k in ("lower", "upper"))
         if jtype == "continuous":
             lower, upper = (lower, upper) if upper > lower else (0.0, np.pi)
+        elif jtype in MOVABLE and abs(upper) <= ZERO_POSE_TOL < -lower:  # closed at zero, opening negative
+            axis, lower, upper = -axis, 0.0 - upper, 0.0 - lower  # 0.0 - x: no negative zero
         joints_raw.append((name, jtype, p, c, _origin(j.find("origin"), where), axis / max(np.linalg.norm(axis), 1e-12),
                            lower, upper))
 

@@ -9,6 +9,7 @@ import pytest
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.scene import build_scene
 
 # (target link, part category, joint type, handle link) per the paper's Appendix B selection rule
 EXPECTED = {
@@ -158,3 +159,29 @@ def test_an_object_file_symlinked_out_of_its_folder_is_refused(tmp_path, name):
         load_gapartnet(folder)
     msg = str(e.value)
     assert "\n" not in msg and f"{folder / name} resolves to {outside}, outside the object folder {folder}" in msg
+
+
+def test_a_door_closed_at_zero_that_opens_towards_negative_angles_loads_as_its_positive_twin(tmp_path):
+    """GAPartNet's [-90 deg, 0] doors: annotated at the URDF's zero pose, which is the upper end of their range. The
+    twin of the packaged door with the axis reversed and the range negated is read as the door itself (the axis
+    reversed back, closed at its lower limit 0), every link posed as the original's, and its scene the original's."""
+    source = packaged_object("door_cabinet_0000")
+    twin = tmp_path / "door_twin"
+    shutil.copytree(source, twin)
+    path = twin / "mobility_annotation_gapartnet.urdf"
+    text = path.read_text()
+    flipped = text.replace('<axis xyz="0.000000 1.000000 0.000000"/>\n\t\t<child link="link_door"/>',
+                           '<axis xyz="0.000000 -1.000000 0.000000"/>\n\t\t<child link="link_door"/>')
+    flipped = flipped.replace('<limit lower="0.0" upper="1.9572"/>', '<limit lower="-1.9572" upper="0.0"/>')
+    assert flipped.count("-1.9572") == 1 and flipped.count("-1.000000 0.000000") == 1
+    path.write_text(flipped)
+    original, door = load_gapartnet(source), load_gapartnet(twin)
+    (j,) = [j for j in door.joints if j.name == "joint_door"]
+    (o,) = [j for j in original.joints if j.name == "joint_door"]
+    assert (j.lower, j.upper) == (o.lower, o.upper) == (0.0, 1.9572)
+    np.testing.assert_allclose(j.axis, o.axis)
+    np.testing.assert_allclose(j.origin, o.origin)
+    for name, link in original.links.items():
+        np.testing.assert_allclose(door.links[name].pose, link.pose, atol=1e-12)
+    assert door.target.joint.name == "joint_door" and door.target.handle.link == original.target.handle.link
+    assert build_scene(door).xml == build_scene(original).xml  # the same scene: the same expert, the same task
