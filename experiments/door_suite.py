@@ -3,6 +3,9 @@ microwaves and refrigerators on which today's expert drag lets go under load as 
 unseen doors, and thick handles on heavy doors.
 
     python experiments/door_suite.py --candidates 12 --seed 100 --out results/suite
+    python experiments/door_suite.py --remeasure results/suite/suite.json --object-contact hand --expert-grasp seated \
+        --out results/suite/seated_hand.jsonl
+    python experiments/door_suite.py --table results/suite --out results/suite/table.md
 
 Each candidate is a procedural object (``objects synth --category C --count 1 --seed S``) with its trajectory; its
 envelope is the expert drag replayed on the C engine from its exact grasp at each pace x damping
@@ -15,7 +18,10 @@ envelope is the expert drag replayed on the C engine from its exact grasp at eac
     heaviest of the rest, to SIZE objects.
 
 Writes OUT/candidates.jsonl (every candidate: category, seed, mass, handle, gate, envelope, classes) and
-OUT/suite.json (the chosen: category, seed and why), read by ``tests/experiments/test_door_suite.py``."""
+OUT/suite.json (the chosen: category, seed and why), read by ``tests/experiments/test_door_suite.py``. With
+``--remeasure SUITE`` it writes the suite's envelopes under other object contacts and expert grasp instead (a lever
+on the expert, judged on the suite); with ``--table DIR`` the table of the suite's envelopes, today's beside each
+remeasured setting (DIR's ``*_*.jsonl``)."""
 
 from __future__ import annotations
 
@@ -30,6 +36,7 @@ from dragmesh2_jax.assets.procedural import synthesize
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.physics.contacts import replay
 from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.starts import reset_starts
 
 CATEGORIES = ("door_cabinet", "microwave", "refrigerator")
@@ -67,12 +74,67 @@ def classes(env: dict[str, bool], mass: float, thickness: float) -> list[str]:
     return out
 
 
+def _opened(env: dict[str, bool]) -> str:
+    """x1 / x4 / x8 at the expert's own pace, then at any pace: "yyn/yyy"."""
+    yn = lambda b: "y" if b else "n"  # noqa: E731
+    own = "".join(yn(env.get(f"1@{d:g}", False)) for d in DAMPINGS)
+    return own + "/" + "".join(yn(any(env.get(f"{p:g}@{d:g}", False) for p in PACES)) for d in DAMPINGS)
+
+
+def table(folder: Path) -> str:
+    """Per suite object: its classes, mass and handle, and where the expert opens it (x1/x4/x8 at its own pace, then
+    at any pace) today and under each remeasured setting; then how many open at x4 and x8 under each."""
+    suite = json.loads((folder / "suite.json").read_text())["objects"]
+    today = {(r["category"], r["seed"]): r for r in map(json.loads, (folder / "candidates.jsonl").open())}
+    others = {f.stem: {(r["category"], r["seed"]): r for r in map(json.loads, f.open())}
+              for f in sorted(folder.glob("*_*.jsonl"))}
+    sets = {"today": today, **others}
+    lines = ["| object | classes | part [kg] | handle [mm] | " + " | ".join(sets) + " |",
+             "|---" * (4 + len(sets)) + "|"]
+    for o in suite:
+        key = (o["category"], o["seed"])
+        cells = [_opened(s[key]["envelope"]) if s[key]["gate"] else "gate fails" for s in sets.values()]
+        lines.append(f"| {o['category']} {o['seed']} | {', '.join(o['classes'])} | {o['mass_kg']:.2f} | "
+                     f"{1000 * o['handle_thickness_m']:.0f} | " + " | ".join(cells) + " |")
+    for d in (4.0, 8.0):
+        counts = [sum(bool(s[(o["category"], o["seed"])]["envelope"].get(f"1@{d:g}")) for o in suite)
+                  for s in sets.values()]
+        lines.append(f"| opened at x{d:g}, own pace | | | | " + " | ".join(f"{c}/{len(suite)}" for c in counts) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def remeasure(objects: list[dict], object_contact: str, expert_grasp: str, out: Path) -> None:
+    """The envelopes of ``objects`` (a suite's) under ``object_contact`` and ``expert_grasp``, as JSON lines."""
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for o in objects:
+            (folder,) = synthesize(o["category"], 1, o["seed"], Path(tmp) / o["category"])
+            scene = SceneConfig(object_contact=object_contact)
+            task = load_task(str(folder), None, backend="mujoco", scene_config=scene, expert_grasp=expert_grasp)
+            passed = bool(task.traj.header["quality"]["passed"])
+            rows.append({**o, "object_contact": object_contact, "expert_grasp": expert_grasp, "gate": passed,
+                         "envelope": envelope(task) if passed else {}})
+            print(json.dumps(rows[-1]), flush=True)
+    atomic_write_text(out, "".join(json.dumps(r) + "\n" for r in rows))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--candidates", type=int, default=12, help="per category")
     ap.add_argument("--seed", type=int, default=100)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--remeasure", help="a suite.json: its objects' envelopes under the settings below")
+    ap.add_argument("--table", help="a suite folder: the table of its envelopes")
+    ap.add_argument("--object-contact", default="mujoco", choices=("mujoco", "hand"))
+    ap.add_argument("--expert-grasp", default="planned", choices=("planned", "seated"))
     args = ap.parse_args()
+    if args.table:
+        atomic_write_text(args.out, table(Path(args.table)))
+        return
+    if args.remeasure:
+        remeasure(json.loads(Path(args.remeasure).read_text())["objects"], args.object_contact, args.expert_grasp,
+                  Path(args.out))
+        return
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
