@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One-seed lever screens on the suite (rules: results/screen/RULE.md): today's recipe against the recipe with one
 # lever (hand_seated: the hand's contacts and the seated grasp; pace: the palm's speed bounded as a second CMDP
-# constraint beside the recipe's load bound), on three suite doors today's expert lets go at x4 and x8; resumable (a
+# constraint beside the recipe's load bound, its rate of steps past it; pace_peak: each episode's peak), on three suite doors today's expert lets go at x4 and x8; resumable (a
 # finished run or evaluation is kept).  Usage: bash experiments/hold_screen.sh [RUNS] [LEVER ...]
 set -euo pipefail
 RUNS=${1:-runs/screen}
@@ -18,6 +18,8 @@ for obj in door_cabinet_0107 door_cabinet_0109 microwave_0104; do
     [ "$lever" = hand_seated ] && extra=(--scene.object-contact hand --task.expert-grasp seated)
     [ "$lever" = pace ] && extra=(--task.reward.constraints \
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:rate:0.05:1:20)
+    [ "$lever" = pace_peak ] && extra=(--task.reward.constraints \
+      relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:peak:0.05:1:20)
     [ -d "$run/seed_0/checkpoints/final" ] || \
       dragmesh2 train --object "runs/suite/$obj" --out "$run" --seeds 0 --backend mujoco --quiet "${extra[@]}"
     [ -s "$run.eval.json" ] || \
