@@ -181,6 +181,12 @@ class Scene:
             mujoco.mj_step(m, d)
         return d
 
+    def geom_mask(self, geoms) -> np.ndarray:
+        """A mask over the model's geoms: True at ``geoms`` (ids)."""
+        mask = np.zeros(self.model.ngeom, bool)
+        mask[np.asarray(list(geoms), int)] = True
+        return mask
+
     def initial_data(self) -> mujoco.MjData:
         """MjData at the closed object and the hand at the origin with PD targets = current pose."""
         d = mujoco.MjData(self.model)
@@ -188,6 +194,16 @@ class Scene:
         d.ctrl[self.ids.hand_actuators] = d.qpos[self.ids.hand_qpos]
         mujoco.mj_forward(self.model, d)
         return d
+
+
+def contact_depth(is_hand: np.ndarray, d: mujoco.MjData, among: np.ndarray | None = None) -> float:
+    """The deepest hand-object penetration (m, >= 0) among ``d``'s contacts; ``is_hand``: a mask over the model's
+    geoms; ``among``: only the contacts of these geoms (a mask too; None: every hand geom's)."""
+    c = d.contact  # the active contacts' fields as arrays
+    between = is_hand[c.geom1] != is_hand[c.geom2]
+    if among is not None:
+        between &= among[c.geom1] | among[c.geom2]
+    return float(-np.min(c.dist[between], initial=0.0))
 
 
 def _fmt(v) -> str:

@@ -9,7 +9,7 @@ unseen doors, and thick handles on heavy doors.
 
 Each candidate is a procedural object (``objects synth --category C --count 1 --seed S``) with its trajectory; its
 envelope is the expert drag replayed on the C engine from its exact grasp at each pace x damping
-(``physics.contacts.replay``, within the task's episode). The rule, written before the runs:
+(``task.expert.expert_replay``, within the task's episode). The rule, written before the runs:
 
   * ``lets_go``: not opened at x4 at the expert's own pace and at x8 at no pace (the paper's hardest cabinet door);
   * ``lags``: else not opened at x4 or at x8 at the expert's own pace (only slower, where at all);
@@ -30,14 +30,11 @@ import json
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 from dragmesh2_jax.assets.procedural import synthesize
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
-from dragmesh2_jax.physics.contacts import replay
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import SceneConfig
-from dragmesh2_jax.task.starts import reset_starts
+from dragmesh2_jax.task.expert import expert_replay
 
 CATEGORIES = ("door_cabinet", "microwave", "refrigerator")
 PACES = (0.33, 0.5, 1.0)
@@ -48,18 +45,9 @@ SIZE = 24
 
 def envelope(task) -> dict[str, bool]:
     """Whether the expert drag opens the part at each ``pace x damping`` (keys ``"0.5@4"``) within the episode."""
-    scene, traj, config = task.scene, task.traj, task.config
-    lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
-    start = reset_starts(scene, traj, None)[0]
-    out = {}
-    for pace in PACES:
-        targets = traj.drag_targets(config.control_dt, pace)
-        targets = np.clip(targets[np.minimum(np.arange(config.episode_length), len(targets) - 1)], lo, hi)
-        for damping in DAMPINGS:
-            r = replay(scene, start, targets, task.substeps, config.settle_substeps, traj.q_done_at(config.rho),
-                       damping)
-            out[f"{pace:g}@{damping:g}"] = r.steps is not None
-    return out
+    return {f"{pace:g}@{damping:g}": expert_replay(task.scene, task.traj, task.config, task.substeps, damping,
+                                                   pace).steps is not None
+            for pace in PACES for damping in DAMPINGS}
 
 
 def classes(env: dict[str, bool], mass: float, thickness: float) -> list[str]:

@@ -1,5 +1,5 @@
 """Where the hand's penetration into a handle comes from, one cause at a time: the expert drag replayed on the C
-engine from the exact grasp (``physics.contacts.replay``) under each grasp (generator parameters) x object contacts
+engine from the exact grasp (``task.expert.expert_replay``) under each grasp (generator parameters) x object contacts
 (``SceneConfig.object_contact``), and on the seated grasp with the hand's contacts each solver setting changed alone.
 
     python experiments/penetration_causes.py --objects A B ... --out results/penetration [--damping 1,4,8]
@@ -18,11 +18,9 @@ import mujoco
 import numpy as np
 
 from dragmesh2_jax.io import atomic_write_text
-from dragmesh2_jax.physics.contacts import replay
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import SceneConfig
-from dragmesh2_jax.task.expert import held_targets
-from dragmesh2_jax.task.starts import reset_starts
+from dragmesh2_jax.task.expert import expert_replay
 from dragmesh2_jax.trajectory.generator import SEAT_DEPTH, GeneratorParams, generate
 
 GRASPS = {"planned (the default)": GeneratorParams(),
@@ -92,18 +90,14 @@ def main() -> None:
         name = Path(o).name
         for contacts in ("mujoco", "hand"):
             task = load_task(o, None, backend="mujoco", scene_config=SceneConfig(object_contact=contacts))
-            lo, hi = task.scene.ids.hand_range[:, 0], task.scene.ids.hand_range[:, 1]
             for grasp_name, params in GRASPS.items():
                 traj = generate(task.scene.obj, params, scene=task.scene)
-                targets = np.clip(held_targets(traj, task.config), lo, hi)
-                start = reset_starts(task.scene, traj, None)[0]
                 for solver, change in SOLVER.items():
                     if solver and (contacts != "hand" or grasp_name != SEATED):
                         continue
                     scene = _changed(task.scene, change)
                     for damping in dampings:
-                        r = replay(scene, start, targets, task.substeps, task.config.settle_substeps,
-                                   traj.q_done_at(task.config.rho), damping)
+                        r = expert_replay(scene, traj, task.config, task.substeps, damping)
                         rows.append({"object": name, "contacts": contacts, "grasp": grasp_name, "solver": solver,
                                      "damping": damping, "deepest_mm": round(1000 * r.deepest, 2),
                                      "peak_load_n": round(r.peak_load, 1), "steps": r.steps})

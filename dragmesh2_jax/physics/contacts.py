@@ -24,7 +24,7 @@ import numpy as np
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.physics.base import Start
-from dragmesh2_jax.scene import FORCE_SENSORS, Scene
+from dragmesh2_jax.scene import FORCE_SENSORS, Scene, contact_depth
 
 #: Constraint rows of one contact: condim 3 under the pyramidal cone is 2 (condim - 1) rows.
 ROWS_PER_CONTACT = 4
@@ -107,16 +107,14 @@ def replay(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settl
     m.dof_damping[scene.ids.target_dof] = scene.model.dof_damping[scene.ids.target_dof] * damping
     d = scene.settled_state(*start, settle_substeps)  # settled at nominal damping, as a reset
     force = m.sensor(FORCE_SENSORS[0]).adr[0] + np.arange(3)
-    hand = np.zeros(m.ngeom, bool)
-    hand[scene.ids.hand_geoms] = True
+    is_hand = scene.geom_mask(scene.ids.hand_geoms)
     peak, deepest = 0.0, 0.0
     for k, target in enumerate(targets):
         d.ctrl[scene.ids.hand_actuators] = target
         for _ in range(substeps):
             mujoco.mj_step(m, d)
         peak = max(peak, float(np.linalg.norm(d.sensordata[force])))
-        c = d.contact  # the active contacts' fields as arrays
-        deepest = max(deepest, float(-np.min(c.dist[hand[c.geom1] != hand[c.geom2]], initial=0.0)))
+        deepest = max(deepest, contact_depth(is_hand, d))
         if d.qpos[scene.ids.target_qpos] >= until:
             return Replay(peak, deepest, k + 1)
     return Replay(peak, deepest, None)

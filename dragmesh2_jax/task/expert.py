@@ -13,6 +13,7 @@ from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.base import Start
 from dragmesh2_jax.scene import Scene
 from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 #: The measure whose unit is the expert's peak wrist load (``config.MEASURES``).
@@ -22,10 +23,23 @@ RELATIVE_LOAD = "relative_load"
 LOAD_DAMPINGS = (1.0, 2.0, 4.0, 8.0)
 
 
-def held_targets(traj: Trajectory, config: TaskConfig) -> np.ndarray:
-    """The expert drag's hand target for each control step of an episode, the last one held."""
-    targets = traj.drag_targets(config.control_dt)
+def held_targets(traj: Trajectory, config: TaskConfig, pace: float = 1.0) -> np.ndarray:
+    """The expert drag's hand target at ``pace`` for each control step of an episode, the last one held."""
+    targets = traj.drag_targets(config.control_dt, pace)
     return targets[np.minimum(np.arange(config.episode_length), len(targets) - 1)]
+
+
+def reachable_targets(scene: Scene, traj: Trajectory, config: TaskConfig, pace: float = 1.0) -> np.ndarray:
+    """:func:`held_targets` within the hand's joint ranges (what its PD targets can be)."""
+    return np.clip(held_targets(traj, config, pace), scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1])
+
+
+def expert_replay(scene: Scene, traj: Trajectory, config: TaskConfig, substeps: int, damping: float = 1.0,
+                  pace: float = 1.0) -> contacts.Replay:
+    """The expert drag at ``pace`` replayed on the C engine from the task's exact start at ``damping`` x nominal, up
+    to success (``contacts.replay``: its peak wrist load, deepest penetration and steps)."""
+    return contacts.replay(scene, reset_starts(scene, traj, None)[0], reachable_targets(scene, traj, config, pace),
+                           substeps, config.settle_substeps, traj.q_done_at(config.rho), damping)
 
 
 def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarray:
@@ -57,8 +71,7 @@ def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Sta
         return np.full(shape, np.nan, np.float32)
     if scene.config.effector != "hand":
         raise DragMeshError(f"{RELATIVE_LOAD} needs the hand (the expert drag moves the hand, not a gripper)")
-    lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
-    targets = np.clip(held_targets(traj, config), lo, hi)
+    targets = reachable_targets(scene, traj, config)
     peaks = [[contacts.peak_load(scene, s, targets, substeps, config.settle_substeps, traj.q_done_at(config.rho),
                                  damping) for damping in LOAD_DAMPINGS]
              for s in (bank if config.expert_load_unit == "start" else [nominal])]

@@ -40,7 +40,7 @@ from dragmesh2_jax.assets.target import opening_direction
 from dragmesh2_jax.assets.urdf import axis_angle_matrix
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import cache_dir, hash_files, object_hash
-from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, Scene, SceneConfig, build_scene
+from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, Scene, SceneConfig, build_scene, contact_depth
 from dragmesh2_jax.trajectory import grasp
 from dragmesh2_jax.trajectory.schema import Frame, Trajectory, read_trajectory, write_trajectory
 
@@ -214,13 +214,6 @@ def _object_joint_positions(scene: Scene, d: mujoco.MjData) -> tuple[float, ...]
     return tuple(out)
 
 
-def _penetration(is_hand: np.ndarray, d: mujoco.MjData) -> float:
-    """The deepest hand-object penetration (m) among ``d``'s contacts; ``is_hand``: a mask over the model's geoms."""
-    c = d.contact  # the active contacts' fields as arrays
-    between = is_hand[c.geom1] != is_hand[c.geom2]
-    return float(-np.min(c.dist[between], initial=0.0))
-
-
 def execute(scene: Scene, plan: Plan, params: GeneratorParams, damping_scale: float = 1.0):
     """Run the plan in the C engine; returns (frames, stats)."""
     m, ids = scene.model, scene.ids
@@ -236,15 +229,14 @@ def execute(scene: Scene, plan: Plan, params: GeneratorParams, damping_scale: fl
     mujoco.mj_forward(m, d)
     for _ in range(params.settle_frames * params.substeps):
         mujoco.mj_step(m, d)
-    is_hand = np.zeros(m.ngeom, dtype=bool)
-    is_hand[ids.hand_geoms] = True
+    is_hand = scene.geom_mask(ids.hand_geoms)
     frames, pen, limit_excess, palm_dist = [], 0.0, 0.0, []
     wrist = ids.wrist_body
     for phase, step, target in zip(plan.phases, plan.steps, plan.targets, strict=True):
         d.ctrl[ids.hand_actuators] = np.clip(target, lo, hi)
         for _ in range(params.substeps):
             mujoco.mj_step(m, d)
-            pen = max(pen, _penetration(is_hand, d))
+            pen = max(pen, contact_depth(is_hand, d))
         if not np.all(np.isfinite(d.qpos)):
             raise DragMeshError(f"{scene.obj.folder}: physics went non-finite while executing the plan")
         hq = d.qpos[ids.hand_qpos].copy()

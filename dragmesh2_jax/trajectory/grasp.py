@@ -16,7 +16,7 @@ import numpy as np
 
 from dragmesh2_jax.assets import hand as hand_lib
 from dragmesh2_jax.assets.target import HandleFrame
-from dragmesh2_jax.scene import Scene
+from dragmesh2_jax.scene import Scene, contact_depth
 
 # Finger DoF indices within the 45 finger DoFs (action index - 6): flexion is each segment's x hinge.
 MCP = (0, 9, 18, 27)  # Index1_x, Middle1_x, Pinky1_x, Ring1_x
@@ -113,16 +113,6 @@ CLOSING_SIGN = (1.0,) * 13 + (-1.0, -1.0)
 SEAT_STEP_M, SEAT_OPEN, SEAT_ITERATIONS = 0.0005, 0.02, 200
 
 
-def _deepest(scene: Scene, d: mujoco.MjData, geoms: set[int]) -> float:
-    """The deepest penetration (m) of ``geoms`` (hand geoms) into the object in ``d``'s contacts."""
-    hand = set(scene.ids.hand_geoms.tolist())
-    depth = 0.0
-    for c in d.contact[: d.ncon]:
-        if (c.geom1 in hand) != (c.geom2 in hand) and (c.geom1 in geoms or c.geom2 in geoms):
-            depth = max(depth, -float(c.dist))
-    return depth
-
-
 def seat(scene: Scene, hand_q: np.ndarray, obj_q: float, depth: float) -> np.ndarray:
     """The hand configuration ``hand_q`` (a grasp the physics pressed into the handle) moved out of the object,
     kinematically, until no hand geom is more than ``depth`` deep: the whole hand along the handle's outward normal
@@ -135,29 +125,31 @@ def seat(scene: Scene, hand_q: np.ndarray, obj_q: float, depth: float) -> np.nda
     q = np.asarray(hand_q, np.float64).copy()
     d.qpos[ids.target_qpos] = obj_q
     p = hand_lib.prefix(scene.config.hand.side)
-    geom = lambda name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731
+    is_hand = scene.geom_mask(ids.hand_geoms)
+    geoms = lambda names: scene.geom_mask(  # noqa: E731
+        mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{p}_{n}") for n in names)
 
-    def depth_of(geoms: set[int]) -> float:
+    def depth_of(among: np.ndarray) -> float:
         d.qpos[ids.hand_qpos] = q
         mujoco.mj_forward(m, d)
-        return _deepest(scene, d, geoms)
+        return contact_depth(is_hand, d, among)
 
-    def out(geoms: set[int]) -> None:
+    def out(among: np.ndarray) -> None:
         for _ in range(SEAT_ITERATIONS):
-            if depth_of(geoms) <= depth:
+            if depth_of(among) <= depth:
                 return
             q[:3] += SEAT_STEP_M * scene.handle.normal
 
-    out({geom(f"{p}_palm")} | {geom(f"{p}_{ph.name}_geom") for ph in hand_lib.PHALANGES if ph.name.endswith("1")})
+    out(geoms(["palm", *(f"{ph.name}_geom" for ph in hand_lib.PHALANGES if ph.name.endswith("1"))]))
     for finger in hand_lib.FINGERS:
         chain = [k for k, ph in enumerate(hand_lib.PHALANGES) if ph.name[:-1] == finger]
-        geoms = {geom(f"{p}_{hand_lib.PHALANGES[k].name}_geom") for k in chain}
+        among = geoms(f"{hand_lib.PHALANGES[k].name}_geom" for k in chain)
         dofs = [hand_lib.NUM_VIRTUAL + 3 * k + a for k in chain for a in range(3)]
         for _ in range(SEAT_ITERATIONS):
-            if depth_of(geoms) <= depth:
+            if depth_of(among) <= depth:
                 break
             q[dofs] *= 1.0 - SEAT_OPEN
-    out(set(ids.hand_geoms.tolist()))
+    out(is_hand)
     return q
 
 

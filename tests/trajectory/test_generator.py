@@ -6,8 +6,9 @@ import pytest
 
 from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.scene import contact_depth
 from dragmesh2_jax.trajectory import generator
-from dragmesh2_jax.trajectory.generator import GeneratorParams, _penetration, continuous_euler, generate
+from dragmesh2_jax.trajectory.generator import GeneratorParams, continuous_euler, generate
 from dragmesh2_jax.trajectory.schema import PHASES
 from tests.conftest import REAL_OBJECTS
 
@@ -92,8 +93,8 @@ def test_penetration_is_the_deepest_hand_object_contact_and_ignores_the_rest():
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     assert d.ncon == 2
-    assert _penetration(np.array([False, True, False]), d) == pytest.approx(0.05)
-    assert _penetration(np.zeros(3, dtype=bool), d) == 0.0
+    assert contact_depth(np.array([False, True, False]), d) == pytest.approx(0.05)
+    assert contact_depth(np.zeros(3, dtype=bool), d) == 0.0
 
 
 def test_a_trajectory_is_generated_once_and_read_back_exactly(tmp_path, monkeypatch):

@@ -8,11 +8,9 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.procedural import packaged_object
-from dragmesh2_jax.physics.contacts import replay
 from dragmesh2_jax.runs.build import load_task
-from dragmesh2_jax.scene import SceneConfig
-from dragmesh2_jax.task.expert import held_targets
-from dragmesh2_jax.task.starts import reset_starts
+from dragmesh2_jax.scene import SceneConfig, contact_depth
+from dragmesh2_jax.task.expert import expert_replay
 from dragmesh2_jax.trajectory import grasp
 from dragmesh2_jax.trajectory.generator import SEAT_DEPTH
 
@@ -21,10 +19,7 @@ MAX_DEPTH = 0.002
 
 
 def _replay(task, damping: float):
-    scene, traj, config = task.scene, task.traj, task.config
-    targets = np.clip(held_targets(traj, config), scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1])
-    return replay(scene, reset_starts(scene, traj, None)[0], targets, task.substeps, config.settle_substeps,
-                  traj.q_done_at(config.rho), damping)
+    return expert_replay(task.scene, task.traj, task.config, task.substeps, damping)
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +55,7 @@ def test_seat_moves_a_grasp_pressed_into_the_handle_out_of_it_and_leaves_one_on_
         d = mujoco.MjData(scene.model)
         d.qpos[scene.ids.hand_qpos], d.qpos[scene.ids.target_qpos] = q, obj_q
         mujoco.mj_forward(scene.model, d)
-        return grasp._deepest(scene, d, set(scene.ids.hand_geoms.tolist()))
+        return contact_depth(scene.geom_mask(scene.ids.hand_geoms), d)
 
     assert depth(pressed) > 0.005  # the soft contacts let the drives press it 8 mm in
     seated = grasp.seat(scene, pressed, obj_q, 0.0005)
