@@ -18,7 +18,7 @@ from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.physics.engines import require_impl
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.ppo.train import TrainProgram, epoch_jit, epoch_runs, init_jit, init_runs, run_mesh, seed_keys
-from dragmesh2_jax.runs.build import load_task, mix_of, program_of
+from dragmesh2_jax.runs.build import load_task, mix_of, program_of, template_slots
 from dragmesh2_jax.runs.spec import method_spec
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import make_batched
@@ -168,7 +168,9 @@ def bench_env_sweep(objects: list[str] | None, trajectory: str | None, backends:
             require_impl(impl)
     objects = objects or [str(default_object())]
     for backend, impl in engines:
-        task = mix_of([load_task(o, trajectory if len(objects) == 1 else None, backend, impl) for o in objects])
+        slots = template_slots(len(objects), TaskConfig(backend=backend, impl=impl))
+        task = mix_of([load_task(o, trajectory if len(objects) == 1 else None, backend, impl, slots=slots)
+                       for o in objects])
         for n in num_envs:
             rows.append(bench_env(task, n, mjx_steps if backend == "mjx" and mjx_steps else steps))
             if report:

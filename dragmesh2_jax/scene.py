@@ -14,6 +14,9 @@ Choices (documented, all in :class:`SceneConfig`):
   * The handle moves with the target part even where its link hangs off a joint of its own (a door knob's turn);
     a handle link without a mesh is grasped by its annotated box (``stats["handle_geometry"]``).
   * Target part mass: a thin-shell estimate, ``link_areal_density`` x the surface of its bounding box.
+  * The one-structure template (``build_scene(..., slots=n)``, what an MJX mix of procedural objects is built on):
+    a slide and a hinge on the target part (the other kind parked, its axis zero), n collision boxes (the empty ones
+    parked 5 m away), the non-colliding pieces left out, the same names everywhere: MJX stacks such models.
   * Solver for MJX: Newton, few iterations, implicitfast integrator (stiff PD damping), dense Jacobian,
     Euler damping off, pyramidal cone; dt = 1/240 s (the reference's PhysX substep).
 """
@@ -31,7 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from dragmesh2_jax.assets import gripper as gripper_lib
 from dragmesh2_jax.assets import hand as hand_lib
-from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, hull_distance, link_pieces
+from dragmesh2_jax.assets.collision import ConvexPiece, GeometryConfig, as_box, hull_distance, link_pieces
 from dragmesh2_jax.assets.gapartnet import GAPartNetObject
 from dragmesh2_jax.assets.target import HandleFrame
 from dragmesh2_jax.errors import DragMeshError
@@ -53,6 +56,15 @@ WRIST_SITE = "wrist_ft"
 TARGET_JOINT = "target_joint"
 TARGET_BODY = "object_target"
 HANDLE_SITE = "handle"
+#: The one-structure template's joints on the target part (``build_scene(..., slots=n)``): both in every world, the
+#: object's kind moving, the other parked (``PARKED_RANGE`` marks it; its axis is zeroed by ``compile_scene``).
+TEMPLATE_JOINTS = {"target_slide": "slide", "target_hinge": "hinge"}
+PARKED_RANGE = (-1.0, 1.0)
+#: A template's collision slots (``slot0``...), and where an empty one sits: a 1 mm box 5 m below its part.
+SLOT = "slot"
+#: The template's slots: the most pieces near the handle of any procedural object (a drawer's front and bar: 7).
+TEMPLATE_SLOTS = 7
+PARKED_POS, PARKED_HALF = (0.0, 0.0, -5.0), 0.001
 #: Colours that tell the handle, the target part and the rest of the object apart from each other and from the hand
 #: in a picture (the hand is skin-coloured: assets/hand.py). No physics reads them.
 HANDLE_RGBA, PART_RGBA, BODY_RGBA = "0.95 0.55 0.15 1", "0.55 0.72 0.88 1", "0.78 0.78 0.76 1"
@@ -228,13 +240,14 @@ def _piece_geom(parent: ET.Element, asset: ET.Element, piece: ConvexPiece, name:
     ET.SubElement(parent, "geom", **attrs)
 
 
-def _handle_box_geom(parent: ET.Element, frame: HandleFrame, scale: float, contact: dict[str, str]) -> None:
+def _handle_box_geom(parent: ET.Element, frame: HandleFrame, scale: float, contact: dict[str, str],
+                     name: str) -> None:
     """The handle's annotated box (the graspable side of a knob annotated through the panel) as a collision box."""
     rot = np.stack([frame.long_axis, frame.short_axis, frame.normal], axis=1)
     if np.linalg.det(rot) < 0:
         rot[:, 1] = -rot[:, 1]
     q = Rotation.from_matrix(rot).as_quat()  # xyzw
-    ET.SubElement(parent, "geom", name="handle_box", type="box", pos=_fmt(scale * frame.centre),
+    ET.SubElement(parent, "geom", name=name, type="box", pos=_fmt(scale * frame.centre),
                   size=_fmt(scale * np.maximum([frame.length, frame.width, frame.thickness], 1e-3) / 2),
                   quat=_fmt([q[3], q[0], q[1], q[2]]), contype="2", conaffinity="1", condim="3", mass="0",
                   rgba=HANDLE_RGBA, group="2", **contact)
@@ -246,8 +259,27 @@ def _piece_near(piece: ConvexPiece, handle_box: np.ndarray, radius: float, scale
     return hull_distance(scale * piece.corners(), handle_box) <= radius
 
 
-def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_cache: bool = True) -> Scene:
-    """Compose the hand and ``obj`` into one model. See the module docstring for the modelling choices."""
+def compile_scene(xml: str) -> mujoco.MjModel:
+    """The scene's model from its XML; in a template, the parked joint disabled (its axis zero: it moves nothing and
+    no force reaches it) and the constants MuJoCo derives from the joints (inverse weights) taken again without it."""
+    model = mujoco.MjModel.from_xml_string(xml)
+    parked = [model.joint(name).id for name in TEMPLATE_JOINTS
+              if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) >= 0
+              and model.jnt_range[model.joint(name).id].tolist() == list(PARKED_RANGE)]
+    if parked:
+        model.jnt_axis[parked] = 0.0
+        mujoco.mj_setConst(model, mujoco.MjData(model))
+    return model
+
+
+def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_cache: bool = True,
+                slots: int | None = None) -> Scene:
+    """Compose the hand and ``obj`` into one model. See the module docstring for the modelling choices.
+
+    ``slots``: build it on the one-structure template (``TEMPLATE_JOINTS``): the same bodies, joints and geoms for
+    every object whose colliding pieces are at most ``slots`` boxes (procedural objects), so that MJX stacks the
+    models of a mix of categories; its sizes, poses, axes, ranges and masses are the object's data. Pieces that do not
+    collide are left out (they carry no mass and meet nothing), an empty slot is parked out of reach."""
     s = config.scale
     t = obj.target
     pos = np.asarray(config.object_pos, dtype=np.float64)
@@ -255,7 +287,11 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     handle_local = s * handle_obj.centre  # in the object body frame (object placed at ``pos``)
     handle_box = s * handle_obj.corners()
 
-    root = ET.Element("mujoco", model=f"dragmesh2_{obj.object_id}")
+    if slots is not None and config.collide != "target":
+        raise DragMeshError("the one-structure template holds the target part's pieces near its handle only "
+                            "(collide='target')")
+    # a template's names are the same in every world (MJX keeps names as static fields of the model)
+    root = ET.Element("mujoco", model="dragmesh2_template" if slots is not None else f"dragmesh2_{obj.object_id}")
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
     opt = ET.SubElement(root, "option", timestep=f"{config.timestep:.9g}", integrator="implicitfast",
                         solver="Newton", iterations=str(config.solver_iterations),
@@ -282,10 +318,13 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     target_body = ET.Element("body", name=TARGET_BODY, pos="0 0 0")
     j = t.joint
     lower, upper = (s * j.lower, s * j.upper) if not j.is_revolute else (j.lower, j.upper)
-    ET.SubElement(target_body, "joint", name=TARGET_JOINT, type="hinge" if j.is_revolute else "slide",
-                  pos=_fmt(s * j.origin), axis=_fmt(j.axis), range=f"{lower:.7g} {upper:.7g}", ref=f"{lower:.7g}",
-                  damping=f"{config.damping}", armature=f"{config.armature}", limited="true",
-                  solreflimit=f"{config.hand.contact_timeconst} 1")
+    joint = {"pos": _fmt(s * j.origin), "axis": _fmt(j.axis), "damping": f"{config.damping}",
+             "armature": f"{config.armature}", "limited": "true", "solreflimit": f"{config.hand.contact_timeconst} 1"}
+    moving = "hinge" if j.is_revolute else "slide"
+    for name, kind in ((TARGET_JOINT, moving),) if slots is None else TEMPLATE_JOINTS.items():
+        span = (lower, upper) if kind == moving else PARKED_RANGE  # a parked joint never meets its limits
+        ET.SubElement(target_body, "joint", name=name, type=kind, range=f"{span[0]:.7g} {span[1]:.7g}",
+                      ref=f"{lower if kind == moving else 0.0:.7g}", **joint)
     for name, link in obj.links.items():
         # the handle moves with the part even where it hangs off a joint of its own (a door knob's turn)
         in_target = name in t.attached_links or name == handle_obj.link
@@ -298,8 +337,15 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
                 in_target and _piece_near(piece, handle_box, config.collision_radius, s))
             rgba = ((HANDLE_RGBA if in_target else OTHER_HANDLE_RGBA) if name in handle_links
                     else PART_RGBA if in_target else BODY_RGBA)
-            _piece_geom(target_body if in_target else obj_body, asset, piece, f"{name}_{k}", s, collide, contact,
-                        rgba)
+            if slots is None:
+                _piece_geom(target_body if in_target else obj_body, asset, piece, f"{name}_{k}", s, collide, contact,
+                            rgba)
+            elif collide:  # the template holds the pieces that collide, each as a box in its own slot
+                box = as_box(piece)
+                if box is None:
+                    raise DragMeshError(f"{obj.folder}: link {name} collides through a hull that is not a box; the "
+                                        "one-structure template holds boxes (procedural objects)")
+                _piece_geom(target_body, asset, box, f"{SLOT}{n_collide}", s, True, contact, rgba)
             n_collide += collide
             handle_collides |= collide and name == handle_obj.link
             n_pieces += 1
@@ -310,10 +356,17 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
         raise DragMeshError(f"{obj.folder}: target part {t.part.link} has no geometry")
     handle_geometry = "mesh"
     if handle_obj.source == "handle" and not handle_collides:  # a handle link without a mesh: its annotated box
-        _handle_box_geom(target_body, handle_obj, s, contact)
+        _handle_box_geom(target_body, handle_obj, s, contact, "handle_box" if slots is None else f"{SLOT}{n_collide}")
         handle_geometry, n_collide = "annotated box", n_collide + 1
     if n_collide == 0:
         raise DragMeshError(f"{obj.folder}: no collision geometry within {config.collision_radius} m of the handle")
+    if slots is not None:
+        if n_collide > slots:
+            raise DragMeshError(f"{obj.folder}: {n_collide} collision pieces do not fit the template's {slots} slots")
+        for k in range(n_collide, slots):  # the slots this object leaves empty: parked out of every hand's reach
+            ET.SubElement(target_body, "geom", name=f"{SLOT}{k}", type="box", pos=_fmt(PARKED_POS),
+                          size=_fmt([PARKED_HALF] * 3), contype="2", conaffinity="1", condim="3", mass="0",
+                          group="2", rgba=PART_RGBA, **contact)
     corners = s * np.concatenate([p.corners() for p in target_pieces])
     lo, hi = corners.min(0), corners.max(0)
     ext = np.maximum(hi - lo, 0.01)
@@ -338,13 +391,14 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
         ET.SubElement(sensor, "touch", name=name, site=name)
     xml = ET.tostring(root, encoding="unicode")
     try:
-        model = mujoco.MjModel.from_xml_string(xml)
+        model = compile_scene(xml)
     except ValueError as e:
         raise DragMeshError(f"{obj.folder}: MuJoCo cannot compile the scene ({str(e).splitlines()[0]})") from None
 
     names = eff["dofs"]
     jid = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in names]
-    tj = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, TARGET_JOINT)
+    tj = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, TARGET_JOINT if slots is None else next(
+        name for name, kind in TEMPLATE_JOINTS.items() if kind == moving))
     hand_geoms = np.array([g for g in range(model.ngeom) if model.geom_contype[g] == 1])
     obj_geoms = np.array([g for g in range(model.ngeom) if model.geom_contype[g] == 2])
     ids = SceneIds(
@@ -362,5 +416,5 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     stats = {"collision_pieces": int(n_collide), "pieces": int(n_pieces), "max_hull_vertices": int(max_verts),
              "target_mass_kg": round(float(mass), 4), "nq": int(model.nq), "nv": int(model.nv), "nu": int(model.nu),
              "ngeom": int(model.ngeom), "contact_pairs": int(len(hand_geoms) * len(obj_geoms)),
-             "handle_geometry": handle_geometry}
+             "handle_geometry": handle_geometry, "structure": "own" if slots is None else f"template of {slots} slots"}
     return Scene(model=model, ids=ids, obj=obj, config=config, xml=xml, handle=handle_obj.scaled(s, pos), stats=stats)

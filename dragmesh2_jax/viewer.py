@@ -78,7 +78,7 @@ def view(task: PullTask, controller: Controller, damping: float = 1.0, steps: in
                 wanted["restart"] = False
             else:
                 state = step(state, k_act)
-            k = task.kinematics(state.physics)
+            k = task.kinematics(state)
             with v.lock():
                 data.qpos[ids.hand_qpos] = k.hand_q
                 data.qpos[ids.target_qpos] = k.obj_q

@@ -42,7 +42,7 @@ def envelope(task, speeds: list[int], dampings: list[float]) -> list[dict]:
             def body(carry, target):
                 state, finished, success = carry
                 state = jax.vmap(task.step_target)(state, jnp.broadcast_to(target, (n, 51)))
-                k = jax.vmap(task.kinematics)(state.physics)
+                k = jax.vmap(task.kinematics)(state)
                 live = ~finished
                 success = success | (live & (state.metrics["success"] > 0))
                 finished = finished | state.done

@@ -48,9 +48,9 @@ def analyse(run: str, dampings: list[float], episodes: int, backend: str) -> lis
         def body(carry, _):
             state, live = carry
             a = jnp.clip(policy(params, state.obs, key), -1, 1)
-            k0 = jax.vmap(task.kinematics)(state.physics)
+            k0 = jax.vmap(task.kinematics)(state)
             state = step(state, a)
-            k = jax.vmap(task.kinematics)(state.physics)
+            k = jax.vmap(task.kinematics)(state)
             speed = jnp.linalg.norm(k.palm - k0.palm, axis=-1) / task.config.control_dt
             out = (a, speed, jnp.linalg.norm(k.force[:, :3], axis=-1), state.metrics["palm_dist"], live,
                    state.metrics["success"], state.metrics["detach"], state.metrics["progress"])

@@ -23,6 +23,7 @@ from dragmesh2_jax.io import atomic_write_bytes, cache_dir, hash_files
 
 GEOMETRY_VERSION = "2"
 MIN_BOX_HALF = 0.002  # m (unscaled object units): half-thickness of boxes built for flat pieces
+BOX_FIT_TOL = 1e-6  # m (unscaled): how far a hull's vertex may lie off the box that stands for it (``as_box``)
 
 
 @dataclass(frozen=True)
@@ -76,6 +77,24 @@ def oriented_box(v: np.ndarray) -> ConvexPiece:
     half = np.maximum((hi - lo) / 2, MIN_BOX_HALF)
     pos = c + R @ ((hi + lo) / 2)
     return ConvexPiece(vertices=np.zeros((0, 3)), box_pos=pos, box_rot=R, box_half=half)
+
+
+def as_box(piece: ConvexPiece, tol: float = BOX_FIT_TOL) -> ConvexPiece | None:
+    """``piece`` as an oriented box where its hull is one (its vertices the box's 8 corners, within ``tol``), else
+    None. A box is tried axis-aligned in the object frame first (a cube has no principal axes), then on the
+    vertices' principal axes."""
+    if piece.is_box:
+        return piece
+    v = piece.vertices
+    if len(v) != 8:
+        return None
+    lo, hi = v.min(0), v.max(0)
+    for box in (ConvexPiece(np.zeros((0, 3)), (lo + hi) / 2, np.eye(3), (hi - lo) / 2), oriented_box(v)):
+        corners = box.corners()
+        nearest = np.linalg.norm(v[:, None] - corners[None], axis=-1).min(1)
+        if nearest.max() <= tol and np.all(box.box_half > 0):
+            return box
+    return None
 
 
 def _reduce(points: np.ndarray, k: int) -> np.ndarray:

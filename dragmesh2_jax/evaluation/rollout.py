@@ -70,9 +70,9 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
         key, k = jax.random.split(key)
         u = r.policy(params, state.obs, k)
         u = u if r.controls == "targets" else jnp.clip(u, -1.0, 1.0)
-        before, prev = kinematics(state.physics), applied_action(state.obs, task.action_size)
+        before, prev = kinematics(state), applied_action(state.obs, task.action_size)
         state = step(state, u)
-        after = kinematics(state.physics)
+        after = kinematics(state)
         m = state.metrics
         a = applied_action(state.obs, task.action_size)
         dt = task.config.control_dt

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 import mujoco
 import numpy as np
@@ -63,6 +63,11 @@ class ContactBudget:
         contacts = min(candidates, contacts)
         constraints = max(ROWS_PER_CONTACT * contacts + limited_dofs, probed_constraints)
         return cls(contacts, constraints, probed_contacts, probed_constraints, candidates)
+
+    @classmethod
+    def joined(cls, budgets: list[ContactBudget]) -> ContactBudget:
+        """One budget that holds each of ``budgets`` (a mix's objects share their engine's buffers)."""
+        return cls(*(max(getattr(b, f.name) for b in budgets) for f in fields(cls)))
 
     def to_json(self) -> dict:
         return asdict(self)

@@ -13,12 +13,14 @@ the shared ones the batch's size, and states merge with ``mjx.Data.where``, whic
 from __future__ import annotations
 
 import contextlib
+import copy
 import importlib.util
 import io
 
 import jax
 import jax.numpy as jnp
 import mujoco
+import numpy as np
 from flax import struct
 
 from dragmesh2_jax.errors import DragMeshError
@@ -26,7 +28,7 @@ from dragmesh2_jax.physics.base import Kinematics, Layout, Start, WorldFields, p
 from dragmesh2_jax.physics.batch import map_batched, shared
 from dragmesh2_jax.physics.contacts import ContactBudget, overflow_message
 from dragmesh2_jax.physics.engines import avoid_lapack_deadlock, require_impl
-from dragmesh2_jax.scene import CONTACT_SLICE, FORCE_SLICE, Scene
+from dragmesh2_jax.scene import CONTACT_SLICE, FORCE_SLICE, Scene, compile_scene
 
 if importlib.util.find_spec("warp") is not None:  # MJX's Warp implementation (the ``warp`` extra)
     import warp
@@ -76,14 +78,30 @@ class MjxBackend:
         avoid_lapack_deadlock()
         require_impl(impl)
         self.scene, self.substeps, self.impl = scene, substeps, impl
-        self.budget = budget
+        self._starts = [scene.settled_state(hand_q, obj_q, settle_substeps) for hand_q, obj_q in starts]
+        self._put_model(budget)
+
+    def with_budget(self, budget: ContactBudget) -> MjxBackend:
+        """This backend with other buffers (a mix's: the most any of its objects needs, so that their states stack)."""
+        backend = copy.copy(self)
+        backend._put_model(budget)
+        return backend
+
+    def _put_model(self, budget: ContactBudget) -> None:
+        self.budget, impl = budget, self.impl
         self.capped = impl == "jax" and self.budget.contacts < self.budget.candidates
         self.model = self._model()
-        self._starts = [scene.settled_state(hand_q, obj_q, settle_substeps) for hand_q, obj_q in starts]
         model = mjx.put_model(self.model, impl=impl)
+        # Static fields no step of ours reads, made equal in every world so that models of one structure (the
+        # one-structure template's objects) stack: MJX-JAX's geom sizes for height fields (none here), MJX-Warp's DoF
+        # lengths for sleeping islands (off here).
         if impl == "warp":  # its kernels print every overflow and solver iteration limit: overflows are ours to report
-            model = model.replace(opt=model.opt.replace(_impl=model.opt._impl.replace(warn_overflow=0)))
-        self.data = self.sized(MjxData(model=model, bank=None, layout=Layout.of(scene)), 1)
+            model = model.replace(opt=model.opt.replace(_impl=model.opt._impl.replace(warn_overflow=0)),
+                                  _impl=model._impl.replace(dof_length=np.ones_like(model._impl.dof_length)))
+        elif self.model.nhfield == 0:
+            model = model.replace(_impl=model._impl.replace(
+                geom_rbound_hfield=np.zeros_like(model._impl.geom_rbound_hfield)))
+        self.data = self.sized(MjxData(model=model, bank=None, layout=Layout.of(self.scene)), 1)
         # what one world holds: MJX-JAX's buffers are static per world, Warp's the budget
         if impl == "jax":
             c = self.data.bank._impl
@@ -98,7 +116,7 @@ class MjxBackend:
             return self.scene.model
         xml = self.scene.xml.replace("</mujoco>", f'<custom><numeric name="max_contact_points" '
                                                   f'data="{self.budget.contacts}"/></custom></mujoco>')
-        return mujoco.MjModel.from_xml_string(xml)
+        return compile_scene(xml)
 
     def signature(self) -> tuple:
         return self.name, self.substeps, self.impl

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dragmesh2_jax.ppo.train import TrainProgram, make_train
 from dragmesh2_jax.runs.spec import RunSpec
-from dragmesh2_jax.scene import SceneConfig
+from dragmesh2_jax.scene import TEMPLATE_SLOTS, SceneConfig
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.task.load import task_of
@@ -14,13 +14,20 @@ from dragmesh2_jax.trajectory.schema import Trajectory
 
 
 def load_task(object_dir: str, trajectory: str | Trajectory | None = None, backend: str = "auto", impl: str = "jax",
-              scene_config: SceneConfig | None = None, **task_fields) -> PullTask:
+              scene_config: SceneConfig | None = None, slots: int | None = None, **task_fields) -> PullTask:
     """:func:`task_of` with the default config and ``task_fields`` on top (validated before anything compiles)."""
     config = TaskConfig(backend=backend, impl=impl, **task_fields)
-    return task_of(object_dir, trajectory, config, scene_config or SceneConfig())
+    return task_of(object_dir, trajectory, config, scene_config or SceneConfig(), slots)
 
 
 TrajectoryArg = str | Trajectory | None
+
+
+def template_slots(objects: int, config: TaskConfig) -> int | None:
+    """The one-structure template's slots for ``objects`` objects on ``config``'s engine: MJX stacks the models of a
+    mix, so several objects there are built on it (``scene.build_scene``); the C engine and one object keep their own
+    structure (None)."""
+    return TEMPLATE_SLOTS if objects > 1 and config.resolved_backend() == "mjx" else None
 
 
 def tasks_of(spec: RunSpec, trajectories: TrajectoryArg | list[TrajectoryArg] = None) -> list[PullTask]:
@@ -29,7 +36,8 @@ def tasks_of(spec: RunSpec, trajectories: TrajectoryArg | list[TrajectoryArg] = 
     objects = spec.objects or (spec.object,)
     trajs = list(trajectories) if isinstance(trajectories, list | tuple) else [trajectories]
     trajs += [None] * (len(objects) - len(trajs))
-    return [task_of(o, t, spec.task, spec.scene) for o, t in zip(objects, trajs, strict=True)]
+    slots = template_slots(len(objects), spec.task)
+    return [task_of(o, t, spec.task, spec.scene, slots) for o, t in zip(objects, trajs, strict=True)]
 
 
 def mix_of(tasks: list[PullTask]) -> PullTask | ObjectMix:

@@ -4,9 +4,8 @@
 act on one world; batch them with ``jax.vmap`` (:func:`make_batched`); ``wrappers.AutoReset`` restarts finished
 worlds. A step is physics -> events -> reward -> observation (:meth:`PullTask.step`).
 
-Units and frames: world frame, metres, radians, seconds. One step = ``control_dt`` (1/60 s) = ``substeps``
-physics steps. The policy acts only on the hand: target = clip(q_hand + alpha a, limits); the target object
-joint moves only through contact.
+Units: world frame, metres, radians, seconds; a step = ``control_dt`` (1/60 s) = ``substeps`` physics steps. The
+policy acts only on the hand (target = clip(q_hand + alpha a, limits)); the object's joint moves only by contact.
 
 Observation (kept as separate fields, so each policy takes what it may):
   obs.state    s_t (``task/observation.py``): the paper's (120: hand q and qd, handle pose, palm-to-handle vector and
@@ -14,26 +13,22 @@ Observation (kept as separate fields, so each policy takes what it may):
                across objects (110: the hand and the joint in the handle's frame, the part's state in task units).
   obs.history  H_t (L=16, 102): tokens h = [e_t, a_{t-1}], e_t = PD target - hand q, oldest first; zeros at
                reset except the newest token [e_0, 0].
-  obs.aux      y_t (4): [q_t - q_{t-K}, max_{t-K..t} d, 1(max d > d_detach), max_{t-K..t} ||e||] with K = 5.
-               A training target only: never a policy input.
-  obs.privileged (2 + 22): [damping multiplier, friction multiplier, contact load f_t]: for an asymmetric
-               critic only, never an actor input.
+  obs.aux      y_t (4): [q_t - q_{t-K}, max_{t-K..t} d, 1(max d > d_detach), max_{t-K..t} ||e||], K = 5: a target.
+  obs.privileged (2 + 22): [damping multiplier, friction multiplier, contact load f_t]: an asymmetric critic's only.
   obs.step     the control step within the episode (0 at reset): what a time-indexed controller reads (the
                tracking baseline's replay, the parallel-jaw primitive's phases); no network input.
 With ``TaskConfig.force_obs`` (beyond the paper) the contact load f_t (22) is appended to s_t (-> 142, or 132) and to
-every history token (-> 124). f_t = signed log1p of [wrist force (3, N), wrist torque (3, N m), normal contact
-force on the palm and each of the 15 phalanges (16, N)], so that a grip and a yank fit one scale.
+every history token (-> 124): signed log1p of [wrist force (3, N), wrist torque (3, N m), normal contact force on
+the palm and each of the 15 phalanges (16, N)], so that a grip and a yank fit one scale.
 
-The object is data: everything object-specific (the backend's model and start bank, the task boundary, the
-nominal model fields, the adaptive ARAM weight) is ``task.data`` (:class:`TaskData`), and :meth:`PullTask.bind`
-gives the same task over other data, as Playground's domain-randomisation wrapper swaps the model inside a traced
-function. A program written against ``task.bind(data)`` with ``data`` an argument compiles once for every object
-of the same structure (see ``ppo/train.py``).
+The object is data: everything object-specific (the backend's model and start bank, the task boundary, the nominal
+model fields, the adaptive ARAM weight) is ``task.data`` (:class:`TaskData`); :meth:`PullTask.bind` gives the same
+task over other data, as Playground's randomisation wrapper swaps the model inside a traced function, so a program
+written against ``task.bind(data)`` compiles once for every object of the same structure (``ppo/train.py``).
 
 Success: q >= q_done = q_min + rho (q_max - q_min) over the trajectory (``TaskConfig.rho``; design §4).
-Reset: each episode starts at the expert grasp (drag-start frame, settled), or, with ``TaskConfig.reset_noise``,
-at one of a bank of seeded perturbations of it (evaluation uses one by default, so a deterministic cell is a
-distribution, not one episode repeated).
+Reset: each episode starts at the expert grasp (drag-start frame, settled), or, with ``TaskConfig.reset_noise``, at
+one of a bank of seeded perturbations of it (evaluation's default: a deterministic cell is a distribution).
 """
 
 from __future__ import annotations
@@ -277,12 +272,18 @@ class PullTask:
     def trajectories(self) -> tuple[Trajectory, ...]:
         return (self.traj,)
 
+    def with_budget(self, budget: ContactBudget) -> PullTask:
+        """This task on MJX with ``budget``'s buffers (a mix's, which holds each of its objects)."""
+        task = copy.copy(self)
+        task.backend = self.backend.with_budget(budget)
+        return task.bind(self.data.replace(physics=task.backend.data))
+
     def with_starts(self, starts: ResetNoise | None) -> PullTask:
         """This object and trajectory from other reset starts (an evaluation protocol's)."""
         return PullTask(self.scene, self.traj, dataclasses.replace(self.config, reset_noise=starts))
 
-    def kinematics(self, ps) -> Kinematics:
-        return self.backend.kinematics(self.data.physics, ps)
+    def kinematics(self, state: State) -> Kinematics:
+        return self.backend.kinematics(self.data.physics, state.physics)
 
     # ------------------------------------------------------------------- the reward's adaptive weights
     def adaptive_weights(self) -> dict[str, jnp.ndarray]:
@@ -339,7 +340,7 @@ class PullTask:
         start = (jax.random.randint(k_start, (), 0, self.num_starts) if start is None
                  else jnp.asarray(start, jnp.int32) % self.num_starts)
         ps = self.backend.reset_state(self.data.physics, start)
-        k = self.kinematics(ps)
+        k = self.backend.kinematics(self.data.physics, ps)
         ctrl = self.data.start_ctrl[start]
         e = (ctrl - k.hand_q).astype(jnp.float32)
         token = self._token(e, jnp.zeros(self.action_size, jnp.float32), k)
@@ -349,9 +350,8 @@ class PullTask:
         info = {
             "rng": key, "step": jnp.int32(0), "scales": {n: jnp.asarray(v, jnp.float32) for n, v in scales.items()},
             "fixed_damping": fixed, "start": start, "armed": d <= c.d_detach, "q_prev": k.obj_q.astype(jnp.float32),
-            "ctrl": ctrl,
+            "ctrl": ctrl, "episode_return": jnp.float32(0.0), "e_ring": jnp.full((K1,), jnp.linalg.norm(e)),
             "d_ring": jnp.full((K1,), d), "q_ring": jnp.full((K1,), k.obj_q, jnp.float32),
-            "e_ring": jnp.full((K1,), jnp.linalg.norm(e)), "episode_return": jnp.float32(0.0),
             "passed": jnp.zeros(len(c.reward.constraints), bool),  # each constraint's limit passed this episode
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
@@ -381,7 +381,7 @@ class PullTask:
         """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits) (with
         ``expert_prior``, residual_gain x a the policy's residual over the expert drag's action)."""
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
-        k0 = self.kinematics(state.physics)
+        k0 = self.kinematics(state)
         if self.config.expert_prior:  # the residual over the expert drag's action of this step
             prior = (self.params.drag[state.info["step"]] - k0.hand_q) / self.config.alpha  # one row per step
             a = jnp.clip(residual_gain(self.config) * a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
@@ -391,7 +391,7 @@ class PullTask:
     def step_target(self, state: State, target: jnp.ndarray) -> State:
         """One control step with the hand PD target given directly (the trajectory-tracking baseline); the
         history token's action part is then (target - q) / alpha clipped to [-1, 1]."""
-        k0 = self.kinematics(state.physics)
+        k0 = self.kinematics(state)
         ctrl = jnp.clip(target.astype(jnp.float32), self.params.hand_lo, self.params.hand_hi)
         a = jnp.clip((ctrl - k0.hand_q) / self.config.alpha, -1.0, 1.0)
         return self._advance(state, ctrl, a, k0.palm)
@@ -403,7 +403,7 @@ class PullTask:
         fields = randomize.world_fields(info["scales"], self.data.fields, self.params.damping,
                                         self.data.physics.layout)
         ps = self.backend.step(self.data.physics, state.physics, ctrl, fields)
-        k = self.kinematics(ps)
+        k = self.backend.kinematics(self.data.physics, ps)
         finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(x)) for x in jax.tree.leaves(k)]))
         return ps, jax.tree.map(lambda x: jnp.where(finite, x, 0.0), k), finite
 

@@ -31,13 +31,14 @@ def generator_params(config: TaskConfig) -> GeneratorParams:
 
 
 def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskConfig,
-            scene_config: SceneConfig = SceneConfig()) -> PullTask:
-    """Object + trajectory (a file, a trajectory, or None: generated) -> the task, in ``scene_config``."""
+            scene_config: SceneConfig = SceneConfig(), slots: int | None = None) -> PullTask:
+    """Object + trajectory (a file, a trajectory, or None: generated) -> the task, in ``scene_config`` (on the
+    one-structure template of ``slots`` slots where given: ``scene.build_scene``)."""
     if not object_dir:
         raise DragMeshError("no object folder given (--object)")
     obj = load_gapartnet(object_dir)
     traj = read_trajectory(trajectory) if isinstance(trajectory, str) else trajectory
     if traj is not None:
         obj = adopt_trajectory_target(obj, traj)
-    scene = build_scene(obj, scene_config)
+    scene = build_scene(obj, scene_config, slots=slots)
     return PullTask(scene, generate(obj, generator_params(config), scene=scene) if traj is None else traj, config)

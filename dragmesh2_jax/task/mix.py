@@ -3,13 +3,14 @@ objects (each with its own trajectory). Every reset draws one of them for the wo
 ``data`` stacks the objects' task data on a leading object axis (each world reads its object's entry), so one
 compiled program trains on all of them at once.
 
-What can mix: every object's scene has the same state layout (51 hand DoFs and the target joint, the same sensors)
-and its task the same config and start bank. On the C engine anything else may differ (meshes, masses, joint types:
-each world steps its own object's host model; fields indexed by geom are padded to the largest object). On MJX the
-model itself is stacked, so objects mix only when their models have the same structure (the same geoms, meshes and
-static fields: one object at other dampings, frictions or masses, or procedural objects built from the same
-pieces); objects of other structures are one clear error (train them as separate runs, or group them by structure).
-MJX-Warp does not mix objects: its contact buffer belongs to the whole batch, not to a world.
+What can mix: every object's scene has the same hand layout (51 DoFs, the same sensors) and its task the same config
+and start bank. On the C engine anything else may differ (meshes, masses, joint types: each world steps its own
+object's host model; fields indexed by geom are padded to the largest object). On MJX (JAX or Warp) the model itself
+is stacked, so objects mix only when their models have the same structure: one object at other dampings, frictions
+or masses, or procedural objects of any category built on the one-structure template (``scene.build_scene(...,
+slots=n)``: a run's MJX mix is, ``runs/build.template_slots``), whose target joint sits at either of two addresses
+(``Layout``: data). Objects of other structures are one clear error. Their MJX buffers are one budget, the most any
+of them needs (``ContactBudget.joined``), and MJX-Warp's contact buffer, which the whole batch shares, is one.
 
 The object curriculum (``TaskConfig.object_curriculum`` = beta > 0, beyond the paper): the draw follows the policy's
 failures instead of being uniform, P(object i) = (1 - beta) / n + beta w_i / sum_j w_j with w_i = 1 - s_i +
@@ -29,6 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.physics.batch import map_batched, shared
 from dragmesh2_jax.physics.contacts import ContactBudget
 from dragmesh2_jax.scene import Scene
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
@@ -69,7 +71,8 @@ def stack_data(tasks: list[PullTask]) -> TaskData:
         raise DragMeshError("these objects cannot share one batch on this engine: their task data differ in "
                             "structure (on MJX the model's geoms, meshes and static fields must match; mix them "
                             "on the C engine, or train one run per structure)")
-    return jax.tree.map(lambda *xs: jnp.stack(xs), *datas)
+    # the leaves a whole batch shares (MJX-Warp's contact buffer) are one for every object too
+    return jax.tree_util.tree_map_with_path(lambda path, *xs: xs[0] if shared(path) else jnp.stack(xs), *datas)
 
 
 class ObjectMix:
@@ -79,17 +82,17 @@ class ObjectMix:
         if not tasks:
             raise DragMeshError("an object mix needs at least one task")
         base = tasks[0]
-        if getattr(base.backend, "impl", None) == "warp" and len(tasks) > 1:
-            raise DragMeshError("MJX-Warp trains one object per run (its contact buffer is the batch's, not a "
-                                "world's); mix objects on the C engine or on MJX-JAX")
         for t in tasks[1:]:
             if t.signature() != base.signature() or t.num_starts != base.num_starts:
                 raise DragMeshError(f"object {t.scene.obj.object_id} does not share the first object's task config, "
                                     "effector or engine")
             ids, b = t.scene.ids, base.scene.ids
-            if (ids.target_qpos, ids.target_dof) != (b.target_qpos, b.target_dof) or not (
-                    np.array_equal(ids.hand_qpos, b.hand_qpos) and np.array_equal(ids.hand_dof, b.hand_dof)):
+            if not (np.array_equal(ids.hand_qpos, b.hand_qpos) and np.array_equal(ids.hand_dof, b.hand_dof)):
                 raise DragMeshError(f"object {t.scene.obj.object_id}: another state layout than the first object's")
+        budgets = [t.budget for t in tasks]
+        if base.budget is not None and any(b != budgets[0] for b in budgets):  # MJX: one set of buffers for all
+            budget = ContactBudget.joined(budgets)
+            tasks = [t.with_budget(budget) for t in tasks]
         self.tasks, self.base = tuple(tasks), base
         self.data = stack_data(tasks)
 
@@ -164,10 +167,11 @@ class ObjectMix:
 
     def task(self, index) -> PullTask:
         """The task of object ``index`` (a traced index inside a world) over this mix's data."""
-        return self.base.bind(jax.tree.map(lambda x: x[index], self.data))
+        return self.base.bind(map_batched(lambda x: x[index], self.data))
 
-    def kinematics(self, ps):
-        return self.base.kinematics(ps)  # every object has the same state layout (checked)
+    def kinematics(self, state: State):
+        """A world's quantities, read through its own object's layout (a template's target joint has two addresses)."""
+        return self.task(state.info["object"]).kinematics(state)
 
     @property
     def curriculum(self) -> float:

@@ -90,7 +90,9 @@ class Env(Protocol):
         """A clear error when ``count`` world-steps overflowed the engine's buffers."""
         ...
 
-    def kinematics(self, physics: Any) -> Kinematics: ...
+    def kinematics(self, state: State) -> Kinematics:
+        """The quantities a world's ``state`` holds (hand, target joint, frames, loads: ``physics.base.Kinematics``)."""
+        ...
 
     def reset(self, key: jax.Array, damping_scale: jax.Array | float | None = None, start=None) -> State:
         """A new episode; ``damping_scale`` fixes the world's damping multiplier (the one way to fix it: an

@@ -54,7 +54,7 @@ def test_objects_of_the_same_structure_share_one_compiled_epoch(tmp_path):
     assert compiled <= 1  # compiled once (or found compiled), run for both objects
     # each ran on its own object: the handle the observation reports is that object's
     for t, ts in zip(programs, states, strict=True):
-        k = jax.vmap(t.task.kinematics)(ts.env_state.physics)
+        k = jax.vmap(t.task.kinematics)(ts.env_state)
         np.testing.assert_allclose(np.asarray(ts.env_state.obs.state[:, 102:105]), np.asarray(k.handle_pos),
                                    atol=1e-5)
     h0, h1 = (np.asarray(ts.env_state.obs.state[0, 102:105]) for ts in states)

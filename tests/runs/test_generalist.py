@@ -27,7 +27,7 @@ from dragmesh2_jax.runs.presets import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, 
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED, RunDir
 from dragmesh2_jax.runs.spec import method_defaults
 from dragmesh2_jax.task.mix import CURRICULUM_PRIOR, CURRICULUM_RATE
-from tests.conftest import TINY_RUNS, installed_command
+from tests.conftest import TINY_RUNS, installed_command, require_warp
 
 pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # beside the other tiny runs: the engine's programs compile once
 
@@ -87,6 +87,25 @@ def test_train_generalist_trains_its_method_over_its_mix_and_resumes(generalist_
     for bad in (["--object", str(default_object())], ["--method", "pica"]):
         assert dragmesh2(["train", "--generalist", "--out", str(generalist_run / "x"), *bad]) == 2
         assert capsys.readouterr().err.startswith("error: --generalist trains its own method")
+
+
+@pytest.mark.long
+@pytest.mark.xdist_group("warp")
+def test_train_generalist_on_mjx_steps_a_mix_of_categories_in_one_program(tmp_path, monkeypatch):
+    """``--backend mjx``: the training mix (a drawer cabinet and a door cabinet) and the held-aside one are built on
+    the one-structure template, one compiled program each (MJX-Warp: the cheaper compile on a CPU; MJX-JAX steps the
+    same mix in tests/task/test_mix.py)."""
+    require_warp()
+    monkeypatch.setattr(procedural, "GENERALIST_MIX", {"drawer_cabinet": 2, "door_cabinet": 2})
+    out = tmp_path / "run"
+    tiny = [*TINY[:TINY.index("--backend")], "--robust-every", "0", "--quiet"]
+    assert dragmesh2(["train", "--generalist", "--out", str(out), "--seed", "3", "--backend", "mjx", "--impl", "warp",
+                      *tiny]) == 0
+    run = RunDir(out)
+    assert run.spec().task.resolved_backend() == "mjx" and run.spec().task.impl == "warp"
+    assert len(run.spec().objects) - run.spec().holdout == 2  # a drawer and a door trained in one batch
+    rows = run.log_rows()
+    assert [r["epoch"] for r in rows] == [1, 2] and all(np.isfinite(r["loss"]) for r in rows)
 
 
 def test_a_new_generalist_into_a_run_is_refused_before_it_writes(generalist_run, capsys):

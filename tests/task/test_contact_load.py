@@ -35,7 +35,7 @@ def forces(task, steps=10, n=2):
 
         def body(s, _):
             s = step(s, jnp.zeros((n, 51)))
-            return s, (jax.vmap(task.kinematics)(s.physics).force, s.obs)
+            return s, (jax.vmap(task.kinematics)(s).force, s.obs)
 
         return jax.lax.scan(body, s, None, length=steps)[1]
 
@@ -166,7 +166,7 @@ def _ending_reward(env, t: int, costs, success: bool = False, detach: bool = Fal
     """``env._reward``'s (reward, terms) of a step t of a fresh episode that ends in ``success`` or ``detach`` (or
     not at all), with these constraint ``costs``."""
     s = env.reset(jax.random.PRNGKey(0), jnp.float32(1.0))
-    k = env.kinematics(s.physics)
+    k = env.kinematics(s)
     ev = Events(d=jnp.float32(0.2), q=k.obj_q, success=jnp.bool_(success), detach=jnp.bool_(detach),
                 terminated=jnp.bool_(success or detach), truncated=jnp.bool_(False), step=jnp.int32(t))
     return env._reward(s, jnp.zeros(51), k, ev, jnp.bool_(True), jnp.asarray(costs, jnp.float32))[:2]

@@ -226,7 +226,7 @@ def test_under_the_expert_prior_a_zero_action_replays_the_expert_drag(drawer_tas
 
         def body(s, _):
             s = task.step(s, act(s))
-            return s, (s.metrics["q"], task.kinematics(s.physics).hand_q, applied_action(s.obs, task.action_size))
+            return s, (s.metrics["q"], task.kinematics(s).hand_q, applied_action(s.obs, task.action_size))
 
         return jax.lax.scan(body, s, None, length=steps)[1]
 

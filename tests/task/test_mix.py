@@ -1,21 +1,22 @@
 """Several objects in one batch (task/mix.py): each world draws an object at reset and keeps it for the episode, and
-steps that object's physics; on MJX only objects of one model structure can share a batch (a clear error otherwise)."""
-
-import importlib.util
+steps that object's physics; on MJX only objects of one model structure share a batch (a clear error otherwise), which
+the one-structure template gives every procedural category (``scene.build_scene(..., slots=n)``)."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.runs.build import load_task
-from dragmesh2_jax.scene import SceneConfig, build_scene
+from dragmesh2_jax.scene import TEMPLATE_SLOTS, SceneConfig, build_scene
 from dragmesh2_jax.task.config import AramConfig, Constraint, RewardConfig
 from dragmesh2_jax.task.env import PullTask, make_batched
 from dragmesh2_jax.task.mix import CURRICULUM_PRIOR, CURRICULUM_RATE, OBJECT_END, ObjectMix
 from dragmesh2_jax.task.wrappers import AutoReset
+from tests.conftest import require_warp
 
 DRAWER, DOOR = (str(packaged_object(n)) for n in ("drawer_cabinet_0000", "door_cabinet_0000"))
 
@@ -29,8 +30,8 @@ def test_a_batch_mixes_a_drawer_and_a_door_on_the_c_engine():
     objects = np.asarray(s.info["object"])
     assert set(objects) == {0, 1}
     # each world starts at its own object's expert grasp: the handle it observes is that object's
-    handles = np.stack([np.asarray(t.kinematics(jax.tree.map(lambda x: x[0], t.data.physics.bank)).handle_pos)
-                        for t in tasks])
+    first = [(t.data.physics, jax.tree.map(lambda x: x[0], t.data.physics.bank)) for t in tasks]
+    handles = np.stack([np.asarray(t.backend.kinematics(*d).handle_pos) for t, d in zip(tasks, first, strict=True)])
     np.testing.assert_allclose(np.asarray(s.obs.state[:, 102:105]), handles[objects], atol=1e-5)
     run = jax.jit(lambda s: jax.lax.scan(lambda s, _: (step(s, jnp.zeros((12, 51))), None), s, None, length=20)[0])
     s = run(s)
@@ -40,19 +41,61 @@ def test_a_batch_mixes_a_drawer_and_a_door_on_the_c_engine():
     assert np.all(q[objects == 1] >= tasks[1].traj.q_min - 1e-3) and np.all(q[objects == 0] >= -1e-3)
 
 
-def test_on_mjx_only_objects_of_one_structure_share_a_batch():
-    """MJX stacks the models: one object at two nominal dampings mixes; a drawer and a door (other meshes) is the
-    documented limit, one error line (nothing compiles here)."""
+def test_on_mjx_objects_of_their_own_structures_do_not_share_a_batch():
+    """MJX stacks the models: one object at two nominal dampings mixes; a drawer and a door each in its own structure
+    (other meshes) is one error line, nothing compiled (a mix of them is built on the template: below)."""
     base = load_task(DRAWER, None, backend="mjx")
     same = [PullTask(build_scene(base.scene.obj, SceneConfig(damping=d)), base.traj, base.config) for d in (10.0, 30.0)]
     mix = ObjectMix(same)
     assert mix.data.physics.model.dof_damping.shape[0] == 2
     with pytest.raises(DragMeshError, match="cannot share one batch on this engine"):
         ObjectMix([same[0], load_task(DOOR, None, backend="mjx")])
-    if importlib.util.find_spec("warp") is not None:
-        warp = load_task(DRAWER, base.traj, backend="mjx", impl="warp")
-        with pytest.raises(DragMeshError, match="MJX-Warp trains one object per run"):
-            ObjectMix([warp, warp])
+
+
+@pytest.fixture(scope="module")
+def dishwasher(tmp_path_factory) -> str:
+    return str(procedural.synthesize("dishwasher", 1, procedural.GENERALIST_SEED, tmp_path_factory.mktemp("mix"))[0])
+
+
+def _template_mix(dishwasher: str, backend: str, impl: str = "jax") -> ObjectMix:
+    """The packaged drawer and door and a procedural dishwasher (a slide, a side hinge, a bottom hinge) on the
+    one-structure template, each world's applied action its object's expert drag (``expert_prior``, zero action)."""
+    return ObjectMix([load_task(o, None, backend=backend, impl=impl, slots=TEMPLATE_SLOTS, expert_prior=True)
+                      for o in (DRAWER, DOOR, dishwasher)])
+
+
+def _verdicts(mix: ObjectMix, worlds: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """Each world's object and whether its episode opened the part (x1, the exact expert grasp)."""
+    reset, step = make_batched(mix.sized(worlds))
+    length = mix.config.episode_length
+    s = jax.jit(reset)(jax.random.split(jax.random.PRNGKey(3), worlds), jnp.ones(worlds))
+    run = jax.jit(lambda s: jax.lax.scan(lambda s, _: (step(s, jnp.zeros((worlds, 51))), s.metrics["success"]), s,
+                                         None, length=length)[1])
+    return np.asarray(s.info["object"]), np.asarray(run(s)).any(0)
+
+
+@pytest.fixture(scope="module")
+def c_engine_verdicts(dishwasher):
+    return _verdicts(_template_mix(dishwasher, "mujoco"))
+
+
+@pytest.mark.parametrize("impl", ["jax", pytest.param("warp", marks=[pytest.mark.xdist_group("warp"),
+                                                                     pytest.mark.long])])
+@pytest.mark.mjx
+def test_a_template_mix_of_three_categories_steps_on_mjx_with_the_c_engine_s_verdicts(impl, dishwasher,
+                                                                                      c_engine_verdicts):
+    """One compiled program over a batch that mixes a drawer, a door and a dishwasher: every world opens its own
+    part, as on the C engine (whose template opens each part as the object's own scene does:
+    tests/test_scene_template.py)."""
+    if impl == "warp":
+        require_warp()
+    objects, opened = c_engine_verdicts
+    assert set(objects) == {0, 1, 2} and opened.all()
+    mix = _template_mix(dishwasher, "mjx", impl)
+    assert mix.data.physics.model.jnt_axis.shape[0] == 3  # one model per object, stacked
+    mjx_objects, mjx_opened = _verdicts(mix)
+    np.testing.assert_array_equal(mjx_objects, objects)  # the same draw of objects ...
+    np.testing.assert_array_equal(mjx_opened, opened)  # ... each opened as on the C engine
 
 
 def test_objects_of_another_task_config_do_not_mix():

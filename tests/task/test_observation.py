@@ -50,7 +50,7 @@ def test_handle_state_is_finite_and_holds_the_part_in_task_units(drawer_task):
     s = task.step(s, jnp.zeros(51).at[:3].set(jnp.asarray(task.scene.handle.normal)))
     x = np.asarray(s.obs.state)
     assert x.shape == (110,) and x.dtype == np.float32 and np.all(np.isfinite(x))
-    k, p = task.kinematics(s.physics), task.params
+    k, p = task.kinematics(s), task.params
     delta = float(p.q_goal - p.q_start)
     np.testing.assert_allclose(x[-3:], [float(task.progress(k.obj_q)), float(p.q_done - k.obj_q) / delta,
                                         float(k.obj_qd) / delta], rtol=1e-5, atol=1e-6)
@@ -102,7 +102,7 @@ def test_a_bar_given_the_other_way_reads_the_same():
     (axis, radius, sign), (axis2, radius2, sign2) = joint_geometry(task.scene), joint_geometry(scene)
     assert sign == -sign2 and radius == pytest.approx(radius2)
     np.testing.assert_allclose(axis, axis2, atol=1e-6)
-    k = task.kinematics(task.reset(jax.random.PRNGKey(0)).physics)
+    k = task.kinematics(task.reset(jax.random.PRNGKey(0)))
     other = k.replace(handle_rot=jnp.concatenate([-k.handle_rot[:3], k.handle_rot[3:]]))
     np.testing.assert_allclose(handle_state(k, task.params), handle_state(other, task.params.replace(
         joint_axis=jnp.asarray(axis2, jnp.float32), long_sign=jnp.float32(sign2))), atol=1e-6)
@@ -133,7 +133,7 @@ def test_handle_state_is_invariant_to_turning_the_scene(drawer_task):
     """A rigid motion of everything (object, hand, their velocities) leaves the handle state as it was: the wrist's
     rotation and the palm's velocity are read in the handle's frame."""
     task = _handle_task(drawer_task)
-    k = task.kinematics(task.reset(jax.random.PRNGKey(0)).physics)
+    k = task.kinematics(task.reset(jax.random.PRNGKey(0)))
     rng = np.random.default_rng(0)
     k = k.replace(hand_qd=k.hand_qd.at[:NUM_VIRTUAL].set(jnp.asarray(rng.normal(size=NUM_VIRTUAL), jnp.float32)))
     q_rot = Rotation.from_euler("xyz", [0.3, -0.5, 1.2]).as_matrix()
