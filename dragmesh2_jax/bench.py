@@ -40,7 +40,7 @@ def machine() -> dict:
 
 def engine_name(task: Env) -> str:
     """``mujoco`` (the C engine), ``mjx-jax`` or ``mjx-warp``."""
-    return task.engine if task.engine == "mujoco" else f"{task.engine}-{task.config.impl}"
+    return task.engine if task.engine == "mujoco" else f"{task.engine}-{task.config.resolved_impl()}"
 
 
 def buffers(task: Env) -> dict:
@@ -48,8 +48,9 @@ def buffers(task: Env) -> dict:
     return task.buffers if task.budget is None else {**task.buffers, "budget": task.budget.to_json()}
 
 
-def bench_env(task: Env, num_envs: int, steps: int, seed: int = 0) -> dict:
-    """Time ``steps`` control steps of ``num_envs`` worlds with random actions (compile timed separately)."""
+def _env_run(task: Env, num_envs: int, steps: int, seed: int = 0):
+    """``steps`` control steps of ``num_envs`` worlds with random actions, compiled: (run, the batch's task, compile
+    seconds); ``run()`` steps them and returns the world-steps that overflowed."""
     task = task.sized(num_envs)
     reset, step = make_batched(AutoReset(task))
     keys = jax.random.split(jax.random.PRNGKey(seed), num_envs)
@@ -58,6 +59,7 @@ def bench_env(task: Env, num_envs: int, steps: int, seed: int = 0) -> dict:
     @jax.jit
     def run(keys, actions):
         s = reset(keys)
+
         def body(s, a):
             s = step(s, a)
             return s, s.metrics["overflow"].sum()
@@ -68,19 +70,49 @@ def bench_env(task: Env, num_envs: int, steps: int, seed: int = 0) -> dict:
     t0 = time.perf_counter()
     compiled = run.lower(keys, actions).compile()
     compile_s = time.perf_counter() - t0
-    jax.block_until_ready(compiled(keys, actions))  # warm
+    return (lambda: int(jax.block_until_ready(compiled(keys, actions))[1])), task, compile_s
+
+
+def _timed(run) -> tuple[float, int]:
     t0 = time.perf_counter()
-    _, overflow = jax.block_until_ready(compiled(keys, actions))
-    dt = time.perf_counter() - t0
-    task.check_overflow(int(overflow), "bench env")
+    overflow = run()
+    return time.perf_counter() - t0, overflow
+
+
+def _env_row(task: Env, num_envs: int, steps: int, compile_s: float, dt: float) -> dict:
     ctrl = num_envs * steps / dt
     return {"backend": task.engine, "engine": engine_name(task), "num_envs": num_envs, "steps": steps,
             "compile_s": round(compile_s, 3), "control_steps_per_s": round(ctrl, 1),
             "physics_steps_per_s": round(ctrl * task.substeps, 1), "wall_s": round(dt, 4),
-            "object": task.object_id, "objects": len(task.trajectories), **buffers(task),
-            **machine()}
+            "object": task.object_id, "objects": len(task.trajectories), **buffers(task), **machine()}
 
 
+def bench_env(task: Env, num_envs: int, steps: int, seed: int = 0) -> dict:
+    """Time ``steps`` control steps of ``num_envs`` worlds with random actions (compile timed separately)."""
+    run, task, compile_s = _env_run(task, num_envs, steps, seed)
+    run()  # warm
+    dt, overflow = _timed(run)
+    task.check_overflow(overflow, "bench env")
+    return _env_row(task, num_envs, steps, compile_s, dt)
+
+
+def bench_env_pair(task: Env, baseline: Env, num_envs: int, steps: int, rounds: int = 5, seed: int = 0) -> dict:
+    """``task`` against ``baseline`` side by side (both compiled first, then timed in turn ``rounds`` times, so a
+    drift of the machine's speed reaches both): each one's row at its median time and the ratio of their rates pair
+    by pair (``ratio``: the median, ``ratio_min``/``ratio_max``)."""
+    runs = [_env_run(t, num_envs, steps, seed) for t in (task, baseline)]
+    for run, _, _ in runs:
+        run()  # warm
+    times = [[], []]
+    for _ in range(rounds):
+        for i, (run, t, _) in enumerate(runs):
+            dt, overflow = _timed(run)
+            t.check_overflow(overflow, "bench env")
+            times[i].append(dt)
+    ratios = np.asarray(times[1]) / np.asarray(times[0])  # rate of task / rate of the baseline
+    rows = [_env_row(t, num_envs, steps, c, float(np.median(ts))) for (_, t, c), ts in zip(runs, times, strict=True)]
+    return {"task": rows[0], "baseline": rows[1], "rounds": rounds, "ratio": round(float(np.median(ratios)), 3),
+            "ratio_min": round(float(ratios.min()), 3), "ratio_max": round(float(ratios.max()), 3)}
 
 
 def bench_train(program: TrainProgram, epochs: int, runs: int = 1) -> dict:
@@ -179,7 +211,7 @@ def bench_env_sweep(objects: list[str] | None, trajectory: str | None, backends:
 
 
 def bench_train_sweep(objects: list[str] | None, method: str, backend: str, num_envs: list[int], runs: list[int],
-                      epochs: int, impl: str = "jax", report=None) -> list[dict]:
+                      epochs: int, impl: str = "auto", report=None) -> list[dict]:
     """``bench_train`` for every object x batch size x run count (objects of one structure share a program)."""
     rows = []
     for obj in objects or [str(default_object())]:
@@ -193,7 +225,7 @@ def bench_train_sweep(objects: list[str] | None, method: str, backend: str, num_
 
 
 def bench_soak_sweep(objects: list[str] | None, dampings: list[float], num_envs: int, steps: int, seed: int = 0,
-                     backend: str = "auto", impl: str = "jax") -> list[dict]:
+                     backend: str = "auto", impl: str = "auto") -> list[dict]:
     """``bench_soak`` on every object (default: the packaged drawer)."""
     rows = []
     for obj in objects or [str(default_object())]:

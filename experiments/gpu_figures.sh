@@ -57,6 +57,16 @@ step() {  # step NAME MIN_S ARGS...: one `dragmesh2` command, its stdout the ste
   collect
 }
 
+pystep() {  # pystep NAME MIN_S SCRIPT ARGS...: an experiment that writes the step's rows to its --out
+  local name=$1 need=$2 script=$3; shift 3
+  local left=$((budget - SECONDS)) t0=$SECONDS
+  n=$((n + 1))
+  if [ "$left" -lt "$need" ]; then echo "$name: skipped ($left s left)" >> "$out/steps.log"; return; fi
+  timeout "$left" python3 "$script" "$@" --out "$rows/$(printf %02d $n)_$name.json" >> "$out/steps.log" 2>> "$out/stderr.log"
+  echo "$name: rc=$? $((SECONDS - t0)) s" >> "$out/steps.log"
+  collect
+}
+
 mjx=(--backend mjx --json)
 # physics throughput of the full hand task at 4096 worlds, both implementations (target: >= 1e6 physics steps/s)
 step env_warp_4096 60 bench env "${mjx[@]}" --impl warp --num-envs 4096 --steps 50
@@ -72,4 +82,10 @@ step train_warp_64 60 bench train "${mjx[@]}" --impl warp --num-envs 64
 # a seed-vmapped column of 3 runs
 step train_warp_1024_runs 90 bench train "${mjx[@]}" --impl warp --num-envs 1024 --runs 1,3
 step env_jax_sizes 150 bench env "${mjx[@]}" --impl jax --num-envs 1024,8192 --steps 50
+# issue 56: a batch that mixes every category on the one-structure template against one object, then the generalist's
+# 10 M env steps on MJX-Warp over its mix (its 40 objects built first; the step's seconds in steps.log, the run's log
+# rows with compile and training time in its folder's summary line)
+pystep mixed_env 120 experiments/mixed_structure_speed.py --rounds 3 \
+  --engines mjx-warp:1024:50,mjx-warp:4096:50,mjx-warp:8192:50,mjx-jax:4096:50
+step generalist_warp 300 train --generalist --backend mjx --impl warp --out /tmp/generalist_gpu --quiet
 echo "done in $SECONDS s" >> "$out/steps.log"

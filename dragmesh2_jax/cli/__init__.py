@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import sys
 
+from dragmesh2_jax.cli.handlers import join
 from dragmesh2_jax.cli.parser import build_parser
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import os_error_line
@@ -25,9 +26,11 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as e:  # --help (0) or a usage error (2, already reported)
         return int(e.code or 0)
     args.rest = rest
-    if "mjx" in str(getattr(args, "backend", "")):  # before anything starts JAX (jaxlib < 0.11 CPU deadlock)
-        avoid_lapack_deadlock()
     try:
+        if getattr(args, "coordinator", None):  # before anything starts JAX's backends
+            join(args)
+        if "mjx" in str(getattr(args, "backend", "")):  # before anything starts JAX (jaxlib < 0.11 CPU deadlock)
+            avoid_lapack_deadlock()
         return int(args.func(args) or 0)
     except DragMeshError as e:
         print(f"error: {e}", file=sys.stderr)

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 from dragmesh2_jax.assets import procedural
@@ -30,6 +32,7 @@ from dragmesh2_jax.errors import DragMeshError, NotSaved
 from dragmesh2_jax.evaluation.evaluate import envelope_figure, envelope_table, markdown_table
 from dragmesh2_jax.evaluation.protocol import PAPER, EvalProtocol
 from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.ppo import distributed
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
 from dragmesh2_jax.reproduce import ReproduceConfig, reproduce
 from dragmesh2_jax.runs.commands import (
@@ -221,6 +224,20 @@ def _read_json(path: str) -> dict:
         return json.loads(Path(path).read_text())
     except (OSError, json.JSONDecodeError) as e:
         raise DragMeshError(f"{path}: cannot read recorded curves ({e})") from None
+
+
+def join(args) -> None:
+    """``train --coordinator``: this process joins the others (``ppo/distributed.py``) before JAX starts; a process
+    other than 0 computes the run whole but writes it into a private copy of --out (process 0 writes --out)."""
+    n, i = args.num_processes, args.process_id
+    if n is None or i is None or not 0 <= int(i) < int(n):
+        raise DragMeshError(f"--coordinator needs --num-processes N and --process-id 0..N-1, got {n} and {i}")
+    distributed.initialize(args.coordinator, int(n), int(i))
+    if not distributed.writer() and args.out:
+        shadow = Path(tempfile.mkdtemp(prefix="dragmesh2_process_")) / "run"
+        if Path(args.out).is_dir():  # a resume reads the run as process 0 does
+            shutil.copytree(args.out, shadow)
+        args.out, args.quiet = str(shadow), True
 
 
 def cmd_train(args) -> int:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from dragmesh2_jax.assets.procedural import GENERALIST_MIX
@@ -81,7 +82,7 @@ def _add_renderer_arg(p: argparse.ArgumentParser) -> None:
 
 def _add_backend_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
-    p.add_argument("--impl", default="jax", help="MJX implementation: jax | warp")
+    p.add_argument("--impl", default="auto", help="MJX: auto (Warp on a GPU where installed) | jax | warp")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -206,6 +207,13 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--quiet", action="store_true")
     ptr.add_argument("--wandb", metavar="PROJECT", help="also log the scalars to this Weights & Biases project (the "
                                                          "wandb extra; WANDB_MODE=offline keeps them local)")
+    ptr.add_argument("--coordinator", metavar="HOST:PORT", default=os.environ.get("JAX_COORDINATOR_ADDRESS"),
+                     help="one run over several processes or hosts (jax.distributed): process 0's address; each "
+                          "process steps its share of the worlds, process 0 writes --out ($JAX_COORDINATOR_ADDRESS)")
+    ptr.add_argument("--num-processes", type=POSITIVE, default=os.environ.get("JAX_NUM_PROCESSES"),
+                     help="with --coordinator: how many ($JAX_NUM_PROCESSES)")
+    ptr.add_argument("--process-id", type=NONNEGATIVE, default=os.environ.get("JAX_PROCESS_ID"),
+                     help="with --coordinator: this process's, 0 to N-1 ($JAX_PROCESS_ID)")
     _add_backend_args(ptr)
     ptr.set_defaults(func=cmd_train, tree=True, usage=ptr.format_help)
 

@@ -11,6 +11,8 @@ No process pool of our own: JAX starts nothing, each host starts its own process
   ``world_mesh()``                                          the global mesh over ``jax.devices()``
   ``place(mesh, data, ts)``                                 the task data and a train state as global arrays on it
   ``epoch_worlds(program, data, ts, mesh)``                 one epoch of the run, its worlds split over the mesh
+  ``train_worlds(program, data, ts, epochs, on_epoch)``      ``ppo.train.train`` for one run so split (the CLI's
+                                                            ``train --coordinator ...``: ``runs/session.py``)
 
 Each process builds the same task data and the same initial state (the same seed); ``place`` keeps each process's
 share of the worlds on its devices. Saving a state split over processes (its worlds) is left to the caller:
@@ -25,10 +27,11 @@ import jax
 import numpy as np
 from jax.experimental import multihost_utils
 
-from dragmesh2_jax.ppo.train import WORLD_AXIS, TrainProgram, TrainState, epoch
+from dragmesh2_jax.ppo.train import WORLD_AXIS, NonFiniteLearning, TrainProgram, TrainState, epoch
 from dragmesh2_jax.task.env import TaskData
 
 P = jax.sharding.PartitionSpec
+_JOINED: list[bool] = []  # whether this process joined the runtime (``initialize``)
 
 
 def initialize(coordinator: str, num_processes: int, process_id: int) -> None:
@@ -36,6 +39,18 @@ def initialize(coordinator: str, num_processes: int, process_id: int) -> None:
     ``host:port``. On CPU the collectives go through gloo."""
     jax.config.update("jax_cpu_collectives_implementation", "gloo")
     jax.distributed.initialize(coordinator_address=coordinator, num_processes=num_processes, process_id=process_id)
+    _JOINED.append(True)
+
+
+def joined() -> bool:
+    """Whether this process joined the runtime: a run it trains splits its worlds over every process's devices (one
+    process with several devices, joined alone, splits them over its own)."""
+    return bool(_JOINED)
+
+
+def writer() -> bool:
+    """Whether this process writes what the run produces (process 0; every process computes it all)."""
+    return jax.process_index() == 0
 
 
 def world_mesh() -> jax.sharding.Mesh:
@@ -81,6 +96,25 @@ def epoch_worlds(program: TrainProgram, data: TaskData, ts: TrainState,
                       in_specs=(data_specs(data), state_specs(ts)), out_specs=(state_specs(ts), P()),
                       check_vma=False)
     return f(data, ts)
+
+
+def train_worlds(program: TrainProgram, data: TaskData, ts: TrainState, epochs: int, on_epoch=None) -> TrainState:
+    """``ppo.train.train`` for one run (``ts`` without a run axis: every process's identical copy) up to ``epochs``,
+    its worlds split over the global mesh. ``on_epoch(ts, metrics)`` gets the state placed on the mesh (``gather``
+    reads it whole: a collective, so every process calls it at the same epochs) and the epoch's metrics (the whole
+    batch's, on every process) as host arrays with a run axis of one."""
+    mesh = world_mesh()
+    first = int(ts.epoch)
+    data, ts = place(mesh, data, ts)
+    for e in range(first + 1, epochs + 1):
+        ts, m = epoch_worlds(program, data, ts, mesh)
+        m = {k: np.asarray(v.addressable_data(0), np.float64)[None] for k, v in m.items()}
+        program.task.check_overflow(int(m["overflow"].sum()), f"epoch {e}")
+        if not np.all(np.isfinite(m["loss"])):
+            raise NonFiniteLearning(e, m["loss"][0:1])
+        if on_epoch is not None:
+            on_epoch(ts, m)
+    return ts
 
 
 def gather(tree):

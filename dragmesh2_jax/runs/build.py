@@ -13,7 +13,7 @@ from dragmesh2_jax.task.mix import ObjectMix
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 
-def load_task(object_dir: str, trajectory: str | Trajectory | None = None, backend: str = "auto", impl: str = "jax",
+def load_task(object_dir: str, trajectory: str | Trajectory | None = None, backend: str = "auto", impl: str = "auto",
               scene_config: SceneConfig | None = None, slots: int | None = None, **task_fields) -> PullTask:
     """:func:`task_of` with the default config and ``task_fields`` on top (validated before anything compiles)."""
     config = TaskConfig(backend=backend, impl=impl, **task_fields)

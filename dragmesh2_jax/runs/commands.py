@@ -109,7 +109,7 @@ def run_dirs(out: str | Path, seeds: list[int] | None) -> list[RunDir]:
 
 
 def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str | None = None,
-              tree: RunSpec | None = None, backend: str = "auto", impl: str = "jax", seeds: list[int] | None = None,
+              tree: RunSpec | None = None, backend: str = "auto", impl: str = "auto", seeds: list[int] | None = None,
               resume: bool = False, progress: bool = True, wandb: str | None = None, holdout: int | None = None,
               overwrite: bool = False) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``) of ``tree``, the run's whole
@@ -182,7 +182,7 @@ def run_dampings(checkpoint: str | Path) -> tuple[float, ...]:
     return run.spec().schedule.dampings or PAPER.dampings
 
 
-def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "jax", keep_env: bool = True,
+def load_run(checkpoint: str | Path, backend: str | None = None, impl: str = "auto", keep_env: bool = True,
              object_dir: str | None = None, trajectory: str | None = None
              ) -> tuple[TrainProgram, TrainState, RunDir, Path]:
     """(program, train state, run, checkpoint path) from a checkpoint inside a run folder (or the run folder: its
@@ -218,7 +218,7 @@ def on_object(spec: RunSpec, object_dir: str) -> RunSpec:
                                task=dataclasses.replace(spec.task, object_curriculum=0.0))
 
 
-def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "jax",
+def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = None, impl: str = "auto",
                  epochs: int | None = None, schedule: dict | None = None, selection: EvalProtocol | None = None,
                  progress: bool = True, object_dir: str | None = None, trajectory: str | None = None,
                  overwrite: bool = False, lr: float | None = None) -> tuple[Path, list[dict]]:
@@ -257,7 +257,7 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
 
 
 def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend: str | None = None,
-                        impl: str = "jax", object_dir: str | None = None,
+                        impl: str = "auto", object_dir: str | None = None,
                         trajectory: str | None = None, progress: bool = False) -> tuple[dict, Path]:
     """The protocol for a trained run's checkpoint on its own object(s), or zero-shot on ``object_dir`` (any object
     folder; its trajectory generated unless given), written into the run's evaluations (keyed by checkpoint,
@@ -301,7 +301,7 @@ def baseline_controllers() -> dict:
 
 
 def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, protocol: EvalProtocol = PAPER,
-                      backend: str = "auto", impl: str = "jax", progress: bool = False) -> dict:
+                      backend: str = "auto", impl: str = "auto", progress: bool = False) -> dict:
     """The protocol for a controller that needs no training (``baseline_controllers``) on an object."""
     known = baseline_controllers()
     if name not in known:
@@ -312,13 +312,13 @@ def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, protoc
 
 
 def object_envelope(object_dir: str, trajectory: str | None, paces=ENVELOPE_PACES, dampings=ENVELOPE_DAMPINGS,
-                    backend: str = "auto", impl: str = "jax") -> list[dict]:
+                    backend: str = "auto", impl: str = "auto") -> list[dict]:
     """An object's physical envelope (``evaluation.evaluate.envelope``) from the exact expert start."""
     return envelope(EvalProtocol(starts=None).task(load_task(object_dir, trajectory, backend, impl)), paces, dampings)
 
 
 def view_run(checkpoint: str | None, object_dir: str | None, trajectory: str | None = None, damping: float = 1.0,
-             steps: int | None = None, backend: str | None = None, impl: str = "jax") -> int:
+             steps: int | None = None, backend: str | None = None, impl: str = "auto") -> int:
     """``dragmesh2 view``: a run's deterministic policy (on its own object, or on ``object_dir``), or without a
     checkpoint the expert drag on ``object_dir``, in MuJoCo's viewer from the evaluation's perturbed starts; returns
     the control steps shown."""
@@ -335,7 +335,7 @@ def view_run(checkpoint: str | None, object_dir: str | None, trajectory: str | N
 
 
 def video_of_run(checkpoint: str, dampings: list[float], out: str, every: int, backend: str | None = None,
-                 impl: str = "jax", renderer: str = "auto") -> tuple[Path, str, Path]:
+                 impl: str = "auto", renderer: str = "auto") -> tuple[Path, str, Path]:
     """A run's deterministic policy from the exact start at each damping, side by side; returns (video path,
     renderer used, checkpoint)."""
     program, ts, _, ck = load_run(checkpoint, backend, impl)

@@ -30,6 +30,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import PHYSICAL
 from dragmesh2_jax.evaluation.protocol import SELECTION, EvalProtocol
 from dragmesh2_jax.evaluation.rollout import cells, rollout
+from dragmesh2_jax.ppo import distributed
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint, save_checkpoint
 from dragmesh2_jax.ppo.train import (
     NonFiniteLearning,
@@ -124,7 +125,7 @@ class _Progress:
 
 def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] | None = None,
                     trajectory: str | Trajectory | None = None, resume: bool | None = None,
-                    start: TrainState | None = None, backend: str | None = None, impl: str = "jax",
+                    start: TrainState | None = None, backend: str | None = None, impl: str = "auto",
                     selection: EvalProtocol | None = None, progress: bool = True, log_fn=None,
                     wandb: str | None = None, overwrite: bool = False
                     ) -> tuple[TrainProgram, TrainState, list[list[dict]]]:
@@ -150,6 +151,8 @@ def start_or_resume(spec: RunSpec | None, runs: list[RunDir], seeds: list[int] |
         raise DragMeshError("one run folder per seed, at least one")
     if start is not None and len(runs) != 1:
         raise DragMeshError("a fine-tune continues one run, not several seeds")
+    if distributed.joined() and len(runs) != 1:
+        raise DragMeshError("a run over several processes (--coordinator) trains one seed: drop --seeds")
     if wandb:
         wandb_module()  # before anything is written: a missing extra leaves no folder behind
     if overwrite and resume:
@@ -248,6 +251,9 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
     selection = selection or dataclasses.replace(SELECTION, episodes=schedule.robust_episodes)
     check = selection_check(program, selection, heldout) if robust_every > 0 else None
     first = int(ts.epoch[0])
+    done = [first]  # the epochs trained: a state split over processes is read whole only where it is needed
+    split = distributed.joined()  # one run, its worlds split over every process's devices (ppo/distributed.py)
+    state_of = (lambda ts, i: distributed.gather(ts)) if split else take_run
     best = [max((r["reward"] for r in rr), default=-np.inf) for rr in rows]
     best_robust = [max((robust_score(r) for r in rr), default=None) for rr in robust_rows]
     name = program.name + (f" x {len(runs)} seeds" if len(runs) > 1 else "")
@@ -257,7 +263,8 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
         boards = [stack.enter_context(_Scalars(r, first if resumed else None, wandb)) for r in runs]
 
         def on_epoch(ts: TrainState, m: dict) -> None:
-            e = int(ts.epoch[0])
+            done[0] += 1
+            e = done[0]
             seconds = round(time.time() - t_start, 2)
             for i, run in enumerate(runs):
                 row = {"epoch": e, **{k: float(v[i]) for k, v in m.items()}, "seconds": seconds,
@@ -269,7 +276,7 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
                 robust_due = check is not None and (e % robust_every == 0 or e == epochs)
                 kept = e % save_every == 0 or e == epochs  # the last epoch too: a finished run can be extended
                 if kept or improved or robust_due:  # this run's state, only when it is needed
-                    one = take_run(ts, i)
+                    one = state_of(ts, i)
                 if kept:
                     save_checkpoint(one, run.checkpoint(epoch_name(e)))
                 if improved:
@@ -291,7 +298,11 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
                           f"{mean['progress']:.2f}  clip099 {mean['clip099']:.2f}")
 
         try:
-            ts = train(program, program.data(len(runs)), ts, epochs, run_mesh(len(runs)), on_epoch)
+            if split:
+                ts = distributed.train_worlds(program, program.data(), take_run(ts, 0), epochs, on_epoch)
+                ts = stack_runs([distributed.gather(ts)])
+            else:
+                ts = train(program, program.data(len(runs)), ts, epochs, run_mesh(len(runs)), on_epoch)
         except NonFiniteLearning as e:
             raise DragMeshError(f"{e}; {_last_good(runs[0], program.config.lr)}") from None
     for i, run in enumerate(runs):

@@ -142,7 +142,7 @@ class RunSpec:
     def with_seed(self, seed: int) -> RunSpec:
         return dataclasses.replace(self, schedule=dataclasses.replace(self.schedule, seed=seed))
 
-    def on(self, backend: str, impl: str = "jax") -> RunSpec:
+    def on(self, backend: str, impl: str = "auto") -> RunSpec:
         """The same run on another engine."""
         return dataclasses.replace(self, task=dataclasses.replace(self.task, backend=backend, impl=impl))
 
@@ -250,7 +250,7 @@ def method_defaults(method: str) -> RunSpec:
 
 
 def method_spec(method: str, object_dir: str | list[str], ppo: dict | None = None, task: dict | None = None,
-                scene: dict | None = None, backend: str = "auto", impl: str = "jax",
+                scene: dict | None = None, backend: str = "auto", impl: str = "auto",
                 network: dict | None = None, holdout: int = 0, schedule: dict | None = None) -> RunSpec:
     """A new run of a method from Python: the method's tree (:func:`method_defaults`; ``recommended`` recorded as the
     recipe it stands for) with changes on top, each a group's fields: ``task``, ``scene``, ``network``, ``schedule``

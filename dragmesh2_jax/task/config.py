@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -17,7 +18,7 @@ from dragmesh2_jax.trajectory.schema import RHO
 Backend = Literal["auto", "mjx", "mujoco"]
 BACKENDS = get_args(Backend)
 MAX_ALPHA = 1.0  # the largest action increment (m or rad per control step); the paper's is 0.05
-Impl = Literal["jax", "warp"]
+Impl = Literal["auto", "jax", "warp"]
 IMPLS = get_args(Impl)
 #: s_t's kinds (task/observation.py): the paper's, and one in the handle's frame that transfers across objects.
 Observation = Literal["paper", "handle"]
@@ -286,8 +287,9 @@ class TaskConfig:
     """s_t: the paper's, or handle (in the handle's frame: transfers across objects)"""
     backend: Backend = "auto"
     """the engine: auto is MJX on an accelerator, the C engine (mujoco) on a CPU"""
-    impl: Impl = "jax"
-    """MJX's implementation"""
+    impl: Impl = "auto"
+    """MJX's implementation: auto is Warp on an accelerator where warp-lang is installed (its kernels step the task
+    3.7x MJX-JAX's rate there: RESULTS.md §4), else JAX"""
     contacts: int | None = None
     """MJX contact slots per world (None: sized from a probe, physics/contacts.py)"""
     nthread: int | None = None
@@ -370,7 +372,17 @@ class TaskConfig:
     def resolved_backend(self) -> str:
         if self.backend != "auto":
             return self.backend
-        return "mjx" if jax.default_backend() in ("gpu", "tpu", "cuda", "rocm") else "mujoco"
+        return "mjx" if on_accelerator() else "mujoco"
+
+    def resolved_impl(self) -> str:
+        if self.impl != "auto":
+            return self.impl
+        return "warp" if on_accelerator() and importlib.util.find_spec("warp") is not None else "jax"
+
+
+def on_accelerator() -> bool:
+    """Whether JAX computes on a GPU or TPU here."""
+    return jax.default_backend() in ("gpu", "tpu", "cuda", "rocm")
 
 
 def apply_overrides(tree, overrides: Mapping[str, Any], where: str = ""):

@@ -173,7 +173,7 @@ def make_backend(scene: Scene, config: TaskConfig, starts: list[Start], traj: Tr
     substeps = substeps_of(scene, config)
     if config.resolved_backend() == "mjx":
         budget = contact_budget(scene, traj, config, starts)
-        return _mjx().MjxBackend(scene, substeps, starts, budget, config.settle_substeps, impl=config.impl)
+        return _mjx().MjxBackend(scene, substeps, starts, budget, config.settle_substeps, impl=config.resolved_impl())
     return MujocoBackend(scene, substeps, starts, config.settle_substeps, nthread=config.nthread)
 
 
@@ -255,7 +255,7 @@ class PullTask:
 
     @property
     def engine(self) -> str:
-        """The physics engine: ``mujoco`` (the C engine) or ``mjx`` (``config.impl`` says which MJX)."""
+        """The physics engine: ``mujoco`` (the C engine) or ``mjx`` (``config.resolved_impl()`` says which MJX)."""
         return self.backend.name
 
     @property

@@ -69,7 +69,7 @@ class Env(Protocol):
     substeps: int  # physics steps per control step
     num_starts: int  # the start bank a reset draws from
     object_id: str  # the object's (a mix's first object's)
-    engine: str  # the physics engine: "mujoco" (the C engine) or "mjx" (``config.impl`` says which)
+    engine: str  # the physics engine: "mujoco" (the C engine) or "mjx" (``config.resolved_impl()`` says which)
     budget: ContactBudget | None  # MJX's contact budget (static buffers); None on the C engine
     buffers: dict  # contact slots and constraint rows one world holds (None on the C engine)
     trajectories: tuple[Trajectory, ...]  # the reference trajectory of each object

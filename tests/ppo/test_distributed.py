@@ -16,8 +16,12 @@ import subprocess
 import sys
 import time
 
+import jax
 import numpy as np
 
+from dragmesh2_jax.assets.procedural import default_object
+from dragmesh2_jax.runs.commands import load_run
+from dragmesh2_jax.runs.rundir import RunDir
 from tests.conftest import ROOT
 
 EPOCHS = 2
@@ -31,12 +35,16 @@ def _free_port() -> int:
 
 
 def _worker(out, *args, devices: int = 1) -> subprocess.Popen:
+    return _process(["-m", "tests.ppo.distributed_worker", str(out), str(EPOCHS), *map(str, args)], devices)
+
+
+def _process(argv: list[str], devices: int = 1) -> subprocess.Popen:
     env = {**os.environ, "JAX_PLATFORMS": "cpu"}
     env.pop("XLA_FLAGS", None)
     if devices > 1:
         env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={devices}"
-    cmd = [sys.executable, "-m", "tests.ppo.distributed_worker", str(out), str(EPOCHS), *map(str, args)]
-    return subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return subprocess.Popen([sys.executable, *argv], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
 
 
 def _finish(procs: dict[str, subprocess.Popen]) -> None:
@@ -72,3 +80,43 @@ def test_two_processes_update_as_one_process_with_both_shards(tmp_path):
     # the normalisers' statistics merged over the shards are the whole batch's
     for k in ("mean", "var", "count"):
         np.testing.assert_allclose(b[f"merged_{k}"], b[f"whole_{k}"], rtol=1e-5, err_msg=k)
+
+
+#: The tiny run both CLI cases train (the C engine, 4 worlds: two per device).
+TINY_TRAIN = ["train", "--object", str(default_object()), "--seed", "0", "--epochs", str(EPOCHS), "--num-envs", "4",
+              "--ppo.rollout-len", "8", "--robust-every", "0", "--network.state-sizes", "32,32", "--network.hist-dim",
+              "16", "--network.heads", "2", "--network.critic-sizes", "32", "--backend", "mujoco", "--quiet"]
+
+
+def _cli(out, port: int, processes: int, i: int, devices: int = 1) -> subprocess.Popen:
+    return _process(["-m", "dragmesh2_jax.cli", *TINY_TRAIN, "--out", str(out), "--coordinator", f"localhost:{port}",
+                     "--num-processes", str(processes), "--process-id", str(i)], devices)
+
+
+def test_train_over_two_processes_from_the_cli_equals_one_process_holding_both_shards(tmp_path):
+    """``train --coordinator --num-processes 2 --process-id I`` (JAX's usual environment variables work too): each
+    process steps half the worlds, process 0 writes the run folder; one process joined alone with two devices
+    splits the same worlds over its own. The two runs' logs and final checkpoints agree."""
+    two, one = tmp_path / "two", tmp_path / "one"
+    port = _free_port()
+    procs = {f"process {i} of 2": _cli(two, port, 2, i) for i in range(2)}
+    procs["one process, two devices"] = _cli(one, _free_port(), 1, 0, devices=2)
+    _finish(procs)
+    runs = [RunDir(p) for p in (two, one)]
+    rows = [r.log_rows() for r in runs]
+    assert [r["epoch"] for r in rows[0]] == list(range(1, EPOCHS + 1))
+    for a, b in zip(*rows, strict=True):
+        for k in ("loss", "reward", "kl", "success"):
+            np.testing.assert_allclose(a[k], b[k], rtol=1e-6, atol=1e-7, err_msg=k)
+    states = [load_run(str(r.path))[1] for r in runs]
+    for a, b in zip(*(jax.tree.leaves(s.params) for s in states), strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-6, atol=1e-7)
+    assert int(states[0].epoch) == EPOCHS and int(states[0].env_state.reward.shape[0]) == 4  # every world saved
+
+
+def test_a_process_of_a_run_needs_its_count_and_id(tmp_path):
+    p = _process(["-m", "dragmesh2_jax.cli", *TINY_TRAIN, "--out", str(tmp_path / "x"), "--coordinator",
+                  "localhost:1", "--num-processes", "2", "--process-id", "2"])
+    out, _ = p.communicate(timeout=120)
+    assert p.returncode == 2 and out.strip().splitlines()[-1].startswith("error: --coordinator needs")
+    assert not (tmp_path / "x").exists()

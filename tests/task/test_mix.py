@@ -64,7 +64,7 @@ def _template_mix(dishwasher: str, backend: str, impl: str = "jax") -> ObjectMix
                       for o in (DRAWER, DOOR, dishwasher)])
 
 
-def _verdicts(mix: ObjectMix, worlds: int = 6) -> tuple[np.ndarray, np.ndarray]:
+def _verdicts(mix: ObjectMix, worlds: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """Each world's object and whether its episode opened the part (x1, the exact expert grasp)."""
     reset, step = make_batched(mix.sized(worlds))
     length = mix.config.episode_length

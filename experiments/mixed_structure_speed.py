@@ -1,0 +1,63 @@
+"""Issue 56: does a batch that mixes every procedural category on the one-structure template step as fast as one
+object in its own structure? Per engine, the packaged drawer alone (its own scene: no parked parts) against one
+object of every category of the generalist's mix on the template (each world steps one), side by side in one process
+(``bench.bench_env_pair``: both compiled, then timed in turn, so a drifting CPU weighs on both alike).
+
+    python experiments/mixed_structure_speed.py --out results/speed/mixed_structure.json \\
+        [--engines mujoco:64:100,mjx-jax:16:10,mjx-warp:16:10] [--rounds 5]
+
+An engine is NAME:WORLDS:STEPS. Writes OUT (JSON: one row per engine) and prints a markdown table."""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+from dragmesh2_jax.assets import procedural
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.bench import bench_env_pair
+from dragmesh2_jax.io import atomic_write_json
+from dragmesh2_jax.physics.engines import avoid_lapack_deadlock
+from dragmesh2_jax.runs.build import load_task, mix_of
+from dragmesh2_jax.scene import TEMPLATE_SLOTS
+from dragmesh2_jax.trajectory.generator import generate
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--engines", default="mujoco:64:100,mjx-jax:16:10,mjx-warp:16:10")
+    ap.add_argument("--rounds", type=int, default=5)
+    args = ap.parse_args()
+    avoid_lapack_deadlock()  # before the C engine's rows start JAX (MJX-JAX on a CPU: RESULTS.md §1)
+    folder = Path(tempfile.mkdtemp(prefix="mixed_structure_"))
+    objects = [p for c in procedural.GENERALIST_MIX for p in procedural.synthesize(c, 1, procedural.GENERALIST_SEED,
+                                                                                    folder)]
+    trajectories = [generate(load_gapartnet(o)) for o in objects]
+    one = procedural.default_object()
+    rows = []
+    for engine in args.engines.split(","):
+        name, worlds, steps = engine.split(":")
+        backend, impl = ("mujoco", "jax") if name == "mujoco" else ("mjx", name.split("-")[1])
+        mixed = mix_of([load_task(str(o), t, backend, impl, slots=TEMPLATE_SLOTS)
+                        for o, t in zip(objects, trajectories, strict=True)])
+        pair = bench_env_pair(mixed, load_task(str(one), None, backend, impl), int(worlds), int(steps), args.rounds)
+        rows.append(pair)
+        m, b = pair["task"], pair["baseline"]
+        print(f"{m['engine']}: {worlds} worlds, mixed {m['objects']} categories {m['physics_steps_per_s']:.0f}/s "
+              f"(compile {m['compile_s']:.0f} s), one object {b['physics_steps_per_s']:.0f}/s (compile "
+              f"{b['compile_s']:.0f} s), ratio {pair['ratio']:.2f} ({pair['ratio_min']:.2f}-{pair['ratio_max']:.2f})",
+              flush=True)
+        atomic_write_json(args.out, rows)
+    print("\n| engine | worlds | mixed (10 categories) physics steps/s | one object physics steps/s | ratio (min-max) |"
+          " compile mixed / one |\n|---|---|---|---|---|---|")
+    for p in rows:
+        m, b = p["task"], p["baseline"]
+        print(f"| {m['engine']} | {m['num_envs']} | {m['physics_steps_per_s']:,.0f} | {b['physics_steps_per_s']:,.0f} "
+              f"| {p['ratio']:.2f} ({p['ratio_min']:.2f}-{p['ratio_max']:.2f}) | {m['compile_s']:.0f} s / "
+              f"{b['compile_s']:.0f} s |")
+
+
+if __name__ == "__main__":
+    main()
