@@ -21,20 +21,20 @@ STRUCTURE = ("nq", "nv", "nbody", "njnt", "ngeom", "nmesh", "nsite", "nsensor", 
 
 
 @pytest.fixture(scope="module")
-def one_of_each(tmp_path_factory):
-    """One procedural object of every category of the generalist's mix."""
+def mix_objects(tmp_path_factory):
+    """Every object of the generalist's mix (its 10 categories, 40 objects): its coverage is the template's."""
     out = tmp_path_factory.mktemp("template")
-    return [load_gapartnet(p) for c in procedural.GENERALIST_MIX
-            for p in procedural.synthesize(c, 1, procedural.GENERALIST_SEED, out)]
+    return [load_gapartnet(p) for p in procedural.synthesize_mix(procedural.GENERALIST_MIX, procedural.GENERALIST_SEED,
+                                                                 out)]
 
 
 def _structure(model: mujoco.MjModel) -> tuple:
     return tuple(np.asarray(getattr(model, f)).tobytes() for f in STRUCTURE)
 
 
-def test_every_category_builds_on_one_structure_with_its_own_geometry_joint_and_mass(one_of_each):
-    own = [build_scene(o) for o in one_of_each]
-    template = [build_scene(o, slots=TEMPLATE_SLOTS) for o in one_of_each]
+def test_every_object_of_the_mix_builds_on_one_structure_with_its_own_geometry_joint_and_mass(mix_objects):
+    own = [build_scene(o) for o in mix_objects]
+    template = [build_scene(o, slots=TEMPLATE_SLOTS) for o in mix_objects]
     assert len({_structure(s.model) for s in own}) > 1  # their own scenes differ ...
     assert len({_structure(s.model) for s in template}) == 1  # ... the template is one structure
     kinds = set()
@@ -63,8 +63,8 @@ def test_every_category_builds_on_one_structure_with_its_own_geometry_joint_and_
     assert kinds == {mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_HINGE}
 
 
-def test_the_template_refuses_what_it_cannot_hold(one_of_each, real_objects):
-    drawer = next(o for o in one_of_each if o.object_id.startswith("drawer_cabinet"))
+def test_the_template_refuses_what_it_cannot_hold(mix_objects, real_objects):
+    drawer = next(o for o in mix_objects if o.object_id.startswith("drawer_cabinet"))
     with pytest.raises(DragMeshError, match="do not fit the template's 3 slots"):
         build_scene(drawer, slots=3)
     with pytest.raises(DragMeshError, match="collide='target'"):

@@ -93,7 +93,7 @@ class ObjectMix:
         if base.budget is not None and any(b != budgets[0] for b in budgets):  # MJX: one set of buffers for all
             budget = ContactBudget.joined(budgets)
             tasks = [t.with_budget(budget) for t in tasks]
-        self.tasks, self.base = tuple(tasks), base
+        self.tasks, self.base = tuple(tasks), tasks[0]
         self.data = stack_data(tasks)
 
     @property

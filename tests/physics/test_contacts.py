@@ -34,6 +34,15 @@ def test_the_probe_counts_the_grasp_and_the_budget_adds_its_margin(drawer_task):
         ContactBudget.of(n_con, n_efc, candidates=238, limited_dofs=52, contacts=0)
 
 
+def test_a_mix_s_budget_holds_each_of_its_objects():
+    drawer = ContactBudget.of(20, 90, 238, 4)
+    dishwasher = ContactBudget.of(9, 60, 238, 4)
+    joined = ContactBudget.joined([drawer, dishwasher])
+    assert joined == drawer and dishwasher.contacts < joined.contacts  # the most any of them needs, field by field
+    more_rows = dataclasses.replace(drawer, probed_constraints=200)
+    assert ContactBudget.joined([dishwasher, more_rows]).probed_constraints == 200
+
+
 def test_mjx_jax_keeps_the_budget_and_a_full_world_is_an_overflow(drawer_task):
     """The packaged drawer on MJX-JAX: 238 candidate contacts per world, the budget's slots kept
     (``max_contact_points``); with as many slots as the settled grasp has contacts the world is full (an overflow),

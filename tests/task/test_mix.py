@@ -93,6 +93,8 @@ def test_a_template_mix_of_three_categories_steps_on_mjx_with_the_c_engine_s_ver
     assert set(objects) == {0, 1, 2} and opened.all()
     mix = _template_mix(dishwasher, "mjx", impl)
     assert mix.data.physics.model.jnt_axis.shape[0] == 3  # one model per object, stacked
+    # one budget for every object (``ContactBudget.joined``: the most any of them needs), the overflow check's too
+    assert all(t.budget == mix.budget for t in mix.tasks) and mix.base.budget == mix.budget
     mjx_objects, mjx_opened = _verdicts(mix)
     np.testing.assert_array_equal(mjx_objects, objects)  # the same draw of objects ...
     np.testing.assert_array_equal(mjx_opened, opened)  # ... each opened as on the C engine
