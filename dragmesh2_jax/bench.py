@@ -147,6 +147,36 @@ def bench_train(program: TrainProgram, epochs: int, runs: int = 1) -> dict:
             "budget_s": round(first + (PAPER_EPOCHS - 1) * per, 1), **machine()}
 
 
+def bench_train_pair(program: TrainProgram, baseline: TrainProgram, epochs: int = 2, rounds: int = 3) -> dict:
+    """``program`` against ``baseline`` side by side: both compiled (each one's first epoch timed), then ``epochs``
+    epochs of each in turn ``rounds`` times; each one's row at its median seconds per epoch and the ratio of their
+    rates pair by pair (``ratio``: the median, ``ratio_min``/``ratio_max``)."""
+    runs = []
+    for p in (program, baseline):
+        data = p.data()
+        ts = jax.block_until_ready(init_jit(p, data, seed_keys([0])[0]))
+        t0 = time.perf_counter()
+        ts = jax.block_until_ready(epoch_jit(p, data, ts)[0])
+        runs.append([p, data, ts, time.perf_counter() - t0, []])
+    for _ in range(rounds):
+        for run in runs:
+            p, data, ts = run[:3]
+            t0 = time.perf_counter()
+            for _ in range(epochs):
+                ts, _ = epoch_jit(p, data, ts)
+            run[2] = jax.block_until_ready(ts)
+            run[4].append((time.perf_counter() - t0) / epochs)
+    ratios = np.asarray(runs[1][4]) / np.asarray(runs[0][4])
+    rows = []
+    for p, _, _, first, per in runs:
+        steps, s = p.config.num_envs * p.config.rollout_len, float(np.median(per))
+        rows.append({"method": p.name, "engine": engine_name(p.task), "objects": len(p.task.trajectories),
+                     "num_envs": p.config.num_envs, "first_epoch_s": round(first, 2), "s_per_epoch": round(s, 4),
+                     "physics_steps_per_s": round(steps * p.task.substeps / s, 1), **machine()})
+    return {"program": rows[0], "baseline": rows[1], "rounds": rounds, "ratio": round(float(np.median(ratios)), 3),
+            "ratio_min": round(float(ratios.min()), 3), "ratio_max": round(float(ratios.max()), 3)}
+
+
 def bench_soak(task: Env, dampings: list[float], num_envs: int, steps: int, seed: int = 0) -> list[dict]:
     """Random actions in [-1, 1] for ``steps`` control steps in ``num_envs`` worlds per damping multiplier, all in
     one rollout: per damping the worlds whose physics went non-finite (the task resets and counts each, and the rest

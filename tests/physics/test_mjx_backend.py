@@ -1,9 +1,9 @@
 """MJX's Warp implementation as a tested engine on a CPU (its kernels run there too): the expert drag's verdicts and
-the contact-load sensors agree with the C engine, PPO trains on it (the model is data, seeds vmap as one program),
-each world's damping reaches its physics, and a buffer too small for the contacts is reported, never dropped. One
-worker runs them all: Warp compiles its kernels once per process (and caches them on disk)."""
+the contact-load sensors agree with the C engine, PPO trains on it (the model is data, seeds vmap as one program; a
+run that records its buffers: tests/runs/test_generalist.py), each world's damping reaches its physics, and a buffer
+too small for the contacts is reported, never dropped. One worker runs them all: Warp compiles its kernels once per
+process (and caches them on disk)."""
 
-import dataclasses
 import subprocess
 import sys
 
@@ -17,17 +17,14 @@ from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.bench import buffers
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import track
-from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.evaluation.rollout import rollout
 from dragmesh2_jax.ppo.train import epoch_jit, epoch_runs, init_jit, init_runs, make_train, policy_params, seed_keys
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.presets import RECOMMENDED
-from dragmesh2_jax.runs.rundir import RunDir
-from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.env import PullTask
 from dragmesh2_jax.trajectory.generator import generate
-from tests.conftest import REAL_OBJECTS, require_warp, tiny_program, tiny_spec
+from tests.conftest import REAL_OBJECTS, require_warp, tiny_program
 from tests.task.conftest import PARITY_STEPS, assert_bounded_divergence, assert_loads_agree, expert_trace
 from tests.task.test_contact_load import forces
 
@@ -81,18 +78,6 @@ def test_contact_sensors_agree_with_the_c_engine():
     force within 2 N + 15%, summed palm/phalanx normal force within 20% + 1 N."""
     assert_loads_agree(*(forces(t)[0] for t in (load_task(OBJ, None, backend="mujoco", force_obs=True),
                                                 _warp_task(OBJ, force_obs=True))))
-
-
-def test_a_training_run_records_its_buffers(tmp_path):
-    """Two epochs of the recommended recipe with a robustness check; the run record keeps the contact budget."""
-    run = RunDir(tmp_path / "run")
-    spec = tiny_spec("recommended", backend="mjx", impl="warp", schedule={"epochs": 2, "robust_every": 2})
-    program, ts, (rows,) = start_or_resume(spec, [run], resume=False, progress=False,
-                                           selection=dataclasses.replace(SELECTION, dampings=(1.0,), episodes=2))
-    assert [r["epoch"] for r in rows] == [1, 2] and all(np.isfinite(r["loss"]) and r["overflow"] == 0 for r in rows)
-    assert run.record()["backend"] == "mjx" and run.spec().task.impl == "warp" and run.spec().method == RECOMMENDED
-    assert run.record()["buffers"] == program.task.backend.budget.to_json()
-    assert run.robust_rows()[0]["epoch"] == 2
 
 
 def test_each_worlds_damping_reaches_its_physics():

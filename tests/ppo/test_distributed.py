@@ -1,11 +1,11 @@
-"""A run past one machine (``ppo/distributed.py``): two processes joined by ``jax.distributed`` (CPU devices, gloo
-collectives), each holding half the worlds of the tiny PICA run, give the same update as one process holding both
-halves on two local devices (``--xla_force_host_platform_device_count=2``), the same program without
-``jax.distributed``. Bit equality holds (the parameters, normalisers, learning rate, every metric of both epochs and
-every world's state); the assertion allows rtol=1e-6 so that a reduction order changed by another XLA or gloo
-version still passes.
+"""A run past one machine (``ppo/distributed.py``, ``train --coordinator``): two processes joined by
+``jax.distributed`` (CPU devices, gloo collectives), each holding half the worlds of a tiny run, train as one process
+holding both halves on two local devices (``--xla_force_host_platform_device_count=2``, joined alone). Bit equality
+holds (every logged metric, the parameters, normalisers, learning rate and every world's state); the assertions allow
+rtol=1e-6 so that a reduction order changed by another XLA or gloo version still passes. The normalisers' statistics
+merged over the shards are the whole batch's.
 
-Each case is a worker process (``tests/ppo/distributed_worker.py``); the three run at once (~40 s on two cores).
+Each case is its own process; the three of a run at once.
 """
 
 from __future__ import annotations
@@ -19,9 +19,12 @@ import time
 import jax
 import numpy as np
 
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.runs.commands import load_run
 from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.trajectory.generator import generate
+from dragmesh2_jax.trajectory.schema import write_trajectory
 from tests.conftest import ROOT
 
 EPOCHS = 2
@@ -32,10 +35,6 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("localhost", 0))
         return s.getsockname()[1]
-
-
-def _worker(out, *args, devices: int = 1) -> subprocess.Popen:
-    return _process(["-m", "tests.ppo.distributed_worker", str(out), str(EPOCHS), *map(str, args)], devices)
 
 
 def _process(argv: list[str], devices: int = 1) -> subprocess.Popen:
@@ -62,45 +61,36 @@ def _finish(procs: dict[str, subprocess.Popen]) -> None:
     assert not failed, "\n\n".join(f"--- worker {n} (exit {procs[n].returncode}):\n{logs[n][-4000:]}" for n in procs)
 
 
-def test_two_processes_update_as_one_process_with_both_shards(tmp_path):
-    port = _free_port()
-    multi, single = tmp_path / "multi.npz", tmp_path / "single.npz"
-    procs = {f"process {i} of 2": _worker(multi, f"localhost:{port}", 2, i) for i in range(2)}
-    procs["one process, two devices"] = _worker(single, devices=2)
-    _finish(procs)
-    a, b = np.load(multi), np.load(single)
-    assert int(a["devices"]) == int(b["devices"]) == 2  # both split the 4 worlds in two
-    assert sorted(a.files) == sorted(b.files)
-    for k in a.files:
-        np.testing.assert_allclose(a[k], b[k], rtol=1e-6, atol=1e-7, err_msg=k)
-    params = [k for k in a.files if k.startswith("param")]
-    assert params and any(not np.array_equal(a[k], a[k.replace("param", "initial")]) for k in params)  # it trained
-    assert a["worlds_qpos"].shape[0] == 4  # every world, gathered from both processes
-    assert float(a[f"metric{EPOCHS - 1}_kl"]) > 0 and np.isfinite(float(a[f"metric{EPOCHS - 1}_loss"]))
-    # the normalisers' statistics merged over the shards are the whole batch's
+def test_the_normalisers_statistics_merged_over_shards_are_the_whole_batch_s(tmp_path):
+    out = tmp_path / "stats.npz"
+    _finish({"one process, two devices": _process(["-m", "tests.ppo.distributed_worker", str(out)], devices=2)})
+    a = np.load(out)
+    assert int(a["devices"]) == 2
     for k in ("mean", "var", "count"):
-        np.testing.assert_allclose(b[f"merged_{k}"], b[f"whole_{k}"], rtol=1e-5, err_msg=k)
+        np.testing.assert_allclose(a[f"merged_{k}"], a[f"whole_{k}"], rtol=1e-5, err_msg=k)
 
 
-#: The tiny run both CLI cases train (the C engine, 4 worlds: two per device).
+#: The tiny run both CLI cases train (the C engine, 4 worlds: two per device; the trajectory is the test's).
 TINY_TRAIN = ["train", "--object", str(default_object()), "--seed", "0", "--epochs", str(EPOCHS), "--num-envs", "4",
               "--ppo.rollout-len", "8", "--robust-every", "0", "--network.state-sizes", "32,32", "--network.hist-dim",
               "16", "--network.heads", "2", "--network.critic-sizes", "32", "--backend", "mujoco", "--quiet"]
 
 
-def _cli(out, port: int, processes: int, i: int, devices: int = 1) -> subprocess.Popen:
-    return _process(["-m", "dragmesh2_jax.cli", *TINY_TRAIN, "--out", str(out), "--coordinator", f"localhost:{port}",
-                     "--num-processes", str(processes), "--process-id", str(i)], devices)
+def _cli(out, trajectory, port: int, processes: int, i: int, devices: int = 1) -> subprocess.Popen:
+    return _process(["-m", "dragmesh2_jax.cli", *TINY_TRAIN, "--trajectory", str(trajectory), "--out", str(out),
+                     "--coordinator", f"localhost:{port}", "--num-processes", str(processes), "--process-id", str(i)],
+                    devices)
 
 
 def test_train_over_two_processes_from_the_cli_equals_one_process_holding_both_shards(tmp_path):
     """``train --coordinator --num-processes 2 --process-id I`` (JAX's usual environment variables work too): each
     process steps half the worlds, process 0 writes the run folder; one process joined alone with two devices
     splits the same worlds over its own. The two runs' logs and final checkpoints agree."""
-    two, one = tmp_path / "two", tmp_path / "one"
+    two, one, trajectory = tmp_path / "two", tmp_path / "one", tmp_path / "t.json"
+    write_trajectory(generate(load_gapartnet(default_object())), trajectory)
     port = _free_port()
-    procs = {f"process {i} of 2": _cli(two, port, 2, i) for i in range(2)}
-    procs["one process, two devices"] = _cli(one, _free_port(), 1, 0, devices=2)
+    procs = {f"process {i} of 2": _cli(two, trajectory, port, 2, i) for i in range(2)}
+    procs["one process, two devices"] = _cli(one, trajectory, _free_port(), 1, 0, devices=2)
     _finish(procs)
     runs = [RunDir(p) for p in (two, one)]
     rows = [r.log_rows() for r in runs]
@@ -108,10 +98,12 @@ def test_train_over_two_processes_from_the_cli_equals_one_process_holding_both_s
     for a, b in zip(*rows, strict=True):
         for k in ("loss", "reward", "kl", "success"):
             np.testing.assert_allclose(a[k], b[k], rtol=1e-6, atol=1e-7, err_msg=k)
+    assert rows[0][-1]["kl"] > 0 and np.isfinite(rows[0][-1]["loss"])  # it learned
     states = [load_run(str(r.path))[1] for r in runs]
-    for a, b in zip(*(jax.tree.leaves(s.params) for s in states), strict=True):
-        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-6, atol=1e-7)
     assert int(states[0].epoch) == EPOCHS and int(states[0].env_state.reward.shape[0]) == 4  # every world saved
+    # the parameters, normalisers, learning rate and every world's state, gathered from both processes
+    for a, b in zip(*(jax.tree.leaves(s) for s in states), strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-6, atol=1e-7)
 
 
 def test_a_process_of_a_run_needs_its_count_and_id(tmp_path):

@@ -94,18 +94,21 @@ def test_train_generalist_trains_its_method_over_its_mix_and_resumes(generalist_
 def test_train_generalist_on_mjx_steps_a_mix_of_categories_in_one_program(tmp_path, monkeypatch):
     """``--backend mjx``: the training mix (a drawer cabinet and a door cabinet) and the held-aside one are built on
     the one-structure template, one compiled program each (MJX-Warp: the cheaper compile on a CPU; MJX-JAX steps the
-    same mix in tests/task/test_mix.py)."""
+    same mix in tests/task/test_mix.py); the run records the mix's contact budget."""
     require_warp()
     monkeypatch.setattr(procedural, "GENERALIST_MIX", {"drawer_cabinet": 2, "door_cabinet": 2})
     out = tmp_path / "run"
-    tiny = [*TINY[:TINY.index("--backend")], "--robust-every", "0", "--quiet"]
+    tiny = [*TINY[:TINY.index("--backend")], "--robust-episodes", "2", "--quiet"]
     assert dragmesh2(["train", "--generalist", "--out", str(out), "--seed", "3", "--backend", "mjx", "--impl", "warp",
                       *tiny]) == 0
     run = RunDir(out)
     assert run.spec().task.resolved_backend() == "mjx" and run.spec().task.impl == "warp"
     assert len(run.spec().objects) - run.spec().holdout == 2  # a drawer and a door trained in one batch
     rows = run.log_rows()
-    assert [r["epoch"] for r in rows] == [1, 2] and all(np.isfinite(r["loss"]) for r in rows)
+    assert [r["epoch"] for r in rows] == [1, 2] and all(np.isfinite(r["loss"]) and r["overflow"] == 0 for r in rows)
+    assert run.robust_rows()[0]["epoch"] == 2  # checked on the held-aside mix, MJX too
+    buffers = run.record()["buffers"]  # the mix's one budget, recorded
+    assert buffers["contacts"] >= buffers["probed_contacts"] > 0 and buffers["constraints"] > 0
 
 
 def test_a_new_generalist_into_a_run_is_refused_before_it_writes(generalist_run, capsys):
