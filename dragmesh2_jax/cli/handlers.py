@@ -300,8 +300,10 @@ def cmd_open(args) -> int:
     out = args.out or f"open_{Path(args.object).name}"
     r = open_object(args.object, args.damping, out, args.checkpoint, args.episodes, _engine(args.backend),
                     args.renderer, args.video_every)
+    e = r["expert"]
     print(f"{Path(args.object).name} at x{r['damping']:g}: opened {r['successes']}/{r['episodes']}, "
-          f"{r['steps_mean']:.0f} steps, wrist load p95 {r['wrist_load_peak_n']:.0f} N")
+          f"{r['steps_mean']:.0f} steps, wrist load p95 {r['wrist_load_peak_n']:.0f} N (the expert drag: "
+          f"{e['successes']}/{r['episodes']}, {e['steps_mean']:.0f} steps, {e['wrist_load_peak_n']:.0f} N)")
     where = f"  evaluation: {r['evaluation']}" if r["evaluation"] else ""
     _err(f"report: {Path(out) / 'report.md'}  video: {r['video']}  still: {r['still']}{where}")
     if r["evaluation_not_in_run"]:

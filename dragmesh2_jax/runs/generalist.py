@@ -8,7 +8,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from dragmesh2_jax.assets import procedural
+from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.errors import DragMeshError, NotSaved
+from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.ppo.checkpoint import save_actor
@@ -24,6 +26,8 @@ GENERALIST = "generalist"  # its method, and the packaged run's name (runs/rundi
 #: Where ``train --generalist`` builds its objects and their trajectories, inside OUT (a dataset folder).
 DATASET = "objects"
 OPEN_EPISODES = 10  # deterministic episodes of ``open``, each from its own perturbed start
+#: What ``open`` reports of the policy and of the expert drag side by side: how the part was opened.
+AS_A_PERSON = ("steps_mean", "wrist_load_peak_n", "palm_speed_peak_m_s", "penetration_max_mm")
 
 
 def generalist_objects(out: str | Path, progress: bool = True) -> tuple[list[str], list[str], int]:
@@ -93,6 +97,8 @@ def open_object(object_dir: str, damping: float, out: str | Path, checkpoint: st
         result, not_in_run = e.result, e.reason
         evaluation = atomic_write_json(out / "evaluation.json", result)
     (cell,) = result["cells"]
+    expert_task = protocol.task(program.task)  # the expert drag replayed from the same starts
+    (expert,) = evaluate(expert_task, tracking_controller(expert_task), protocol)["cells"]
     task = EvalProtocol(starts=None).task(program.task)
     video, used = render_policy_video(task, program.controller(ts), [damping], out / "video.mp4", every=every,
                                       renderer=renderer, still=out / "still.png")
@@ -103,6 +109,7 @@ def open_object(object_dir: str, damping: float, out: str | Path, checkpoint: st
               "wrist_load_peak_n": cell["wrist_load_peak_n"], "palm_speed_peak_m_s": cell["palm_speed_peak_m_s"],
               "penetration_max_mm": cell["penetration_max_mm"], "clip099_active": cell["clip099_active"],
               "clip099_policy_active": cell["clip099_policy_active"],
+              "expert": {k: expert[k] for k in ("success_rate", "successes", *AS_A_PERSON)},
               "video": str(video), "renderer": used, "still": str(out / "still.png"),
               "evaluation": str(evaluation) if evaluation else None, "evaluation_not_in_run": not_in_run}
     atomic_write_json(out / "report.json", report)
@@ -111,6 +118,7 @@ def open_object(object_dir: str, damping: float, out: str | Path, checkpoint: st
 
 
 def _markdown(r: dict, name: str) -> str:
+    e = r["expert"]
     return "\n".join([
         f"# {name}: the {r['method']} policy at damping x{r['damping']:g}", "",
         f"- opened in **{r['successes']} of {r['episodes']}** deterministic episodes (perturbed starts), "
@@ -119,4 +127,10 @@ def _markdown(r: dict, name: str) -> str:
         f"penetration {r['penetration_max_mm']:.1f} mm, saturated active DoFs {r['clip099_active']:.2f} (the policy's "
         f"own output: {r['clip099_policy_active']:.2f})",
         f"- checkpoint: `{r['checkpoint']}`", f"- video: `{Path(r['video']).name}` ({r['renderer']}), still: "
-        "`still.png`", "", f"![the last frame]({Path(r['still']).name})", ""])
+        "`still.png`", "", "Opened as a person would? The policy beside the expert drag (the object's own trajectory "
+        "replayed open-loop from the same starts):", "",
+        "| | opened | steps | wrist load p95 | palm speed p95 | deepest penetration |", "|---|---|---|---|---|---|",
+        *(f"| {who} | {x['successes']}/{r['episodes']} | {x['steps_mean']:.0f} | {x['wrist_load_peak_n']:.0f} N | "
+          f"{x['palm_speed_peak_m_s']:.2f} m/s | {x['penetration_max_mm']:.1f} mm |"
+          for who, x in (("policy", r), ("expert", e))),
+        "", f"![the last frame]({Path(r['still']).name})", ""])

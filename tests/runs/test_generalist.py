@@ -22,7 +22,7 @@ from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import policy_params
 from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
-from dragmesh2_jax.runs.generalist import GENERALIST, OPEN_EPISODES, package_run
+from dragmesh2_jax.runs.generalist import AS_A_PERSON, GENERALIST, OPEN_EPISODES, package_run
 from dragmesh2_jax.runs.presets import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, GENERALIST_ROBUST_EPISODES
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED, RunDir
 from dragmesh2_jax.runs.spec import method_defaults
@@ -185,7 +185,13 @@ def test_open_writes_a_report_a_video_and_a_still(packaged, tmp_path, capsys):
     assert 0 <= report["success_rate"] <= 1 and report["wrist_load_peak_n"] >= 0
     assert {"report.md", "report.json", "still.png", "trajectory.json"} <= {p.name for p in out.iterdir()}
     assert Path(report["video"]).is_file() and "opened in" in (out / "report.md").read_text()
-    assert capsys.readouterr().out.startswith("drawer_cabinet_0000 at x2: opened ")
+    # beside the policy, the expert drag from the same starts: whether the object was opened as a person would
+    expert = report["expert"]
+    assert set(expert) == {"success_rate", "successes", *AS_A_PERSON} and expert["successes"] == 2  # it opens it
+    assert expert["wrist_load_peak_n"] > 0 and expert["steps_mean"] > 0
+    assert "| policy |" in (out / "report.md").read_text() and "| expert | 2/2 |" in (out / "report.md").read_text()
+    printed = capsys.readouterr().out
+    assert printed.startswith("drawer_cabinet_0000 at x2: opened ") and "(the expert drag: 2/2" in printed
     assert dragmesh2(["open", "--object", str(tmp_path / "nothing")]) == 2
 
 
