@@ -16,7 +16,7 @@ from dragmesh2_jax.baselines.brax_ppo import brax_ppo_kwargs
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.task.playground import PullEnv, default_config, wrap_for_brax_training
-from tests.conftest import TINY_PPO
+from tests.conftest import TINY_PPO, require_warp
 
 #: One world's observation of the paper's task: s_t, H_t (L=16 tokens of [e_t, a_{t-1}]), y_t, the critic's inputs.
 SIZES = {"state": (120,), "history": (16 * 102,), "aux": (4,), "privileged": (24,)}
@@ -26,7 +26,10 @@ WORLDS = 2  # a tiny batch: MJX on a CPU can deadlock from about 5 worlds (RESUL
 
 @pytest.mark.mjx
 def test_the_playground_env_resets_and_steps_a_batch_under_jit_on_mjx(drawer_task):
-    env = PullEnv(task=drawer_task, config_overrides={"backend": "mjx"})
+    """On MJX-Warp (its compile is the cheaper one on a CPU; the env is the same on MJX-JAX, whose step the tracking
+    and mix tests compile)."""
+    require_warp()
+    env = PullEnv(task=drawer_task, config_overrides={"backend": "mjx", "impl": "warp"})
     assert env.task.engine == "mjx" and env.config.backend == "mjx" and drawer_task.engine == "mujoco"
     assert env.observation_size == SIZES and env.history_shape == HISTORY and env.action_size == 51
     assert env.unwrapped is env
