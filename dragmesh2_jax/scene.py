@@ -321,6 +321,8 @@ def build_scene(obj: GAPartNetObject, config: SceneConfig = SceneConfig(), use_c
     joint = {"pos": _fmt(s * j.origin), "axis": _fmt(j.axis), "damping": f"{config.damping}",
              "armature": f"{config.armature}", "limited": "true", "solreflimit": f"{config.hand.contact_timeconst} 1"}
     moving = "hinge" if j.is_revolute else "slide"
+    if slots is not None and (lower, upper) == PARKED_RANGE:  # compile_scene would take it for the parked joint
+        raise DragMeshError(f"{obj.folder}: a target range of exactly {PARKED_RANGE} is the template's parked mark")
     for name, kind in ((TARGET_JOINT, moving),) if slots is None else TEMPLATE_JOINTS.items():
         span = (lower, upper) if kind == moving else PARKED_RANGE  # a parked joint never meets its limits
         ET.SubElement(target_body, "joint", name=name, type=kind, range=f"{span[0]:.7g} {span[1]:.7g}",

@@ -40,8 +40,6 @@ with contextlib.redirect_stdout(io.StringIO()):  # mujoco.mjx prints "Failed to 
     from mujoco.mjx._src.collision_driver import make_condim
 
 
-
-
 #: MuJoCo Warp's overflow bits (``OverflowType``) that mean a buffer was too small: nefc > njmax (1), njmax_nnz (2),
 #: broadphase (4), narrowphase (8) and CCD (16) buffers. Solver iteration limits (512, 1024) are not overflows.
 WARP_BUFFER_OVERFLOW = 0b11111

@@ -92,8 +92,6 @@ def make_trajectory(object_dir: str, out: str, render: str | None = None, render
     return traj, (render_trajectory_gif(obj, traj, render, renderer=renderer) if render else None)
 
 
-
-
 def train_defaults(out: str | None, method: str | None, resume: bool, seeds: list[int] | None) -> RunSpec:
     """The tree a ``train`` command's flags change: the recorded run's when it resumes one, else the method's."""
     if resume and out:
