@@ -109,9 +109,14 @@ def bench_env_pair(task: Env, baseline: Env, num_envs: int, steps: int, rounds: 
             dt, overflow = _timed(run)
             t.check_overflow(overflow, "bench env")
             times[i].append(dt)
-    ratios = np.asarray(times[1]) / np.asarray(times[0])  # rate of task / rate of the baseline
     rows = [_env_row(t, num_envs, steps, c, float(np.median(ts))) for (_, t, c), ts in zip(runs, times, strict=True)]
-    return {"task": rows[0], "baseline": rows[1], "rounds": rounds, "ratio": round(float(np.median(ratios)), 3),
+    return {"task": rows[0], "baseline": rows[1], **_ratios(*times)}
+
+
+def _ratios(times: list[float], baseline: list[float]) -> dict:
+    """The rate of a program over its baseline's, pair by pair (each pair timed in turn): the median and the range."""
+    ratios = np.asarray(baseline) / np.asarray(times)
+    return {"rounds": len(times), "ratio": round(float(np.median(ratios)), 3),
             "ratio_min": round(float(ratios.min()), 3), "ratio_max": round(float(ratios.max()), 3)}
 
 
@@ -166,15 +171,13 @@ def bench_train_pair(program: TrainProgram, baseline: TrainProgram, epochs: int 
                 ts, _ = epoch_jit(p, data, ts)
             run[2] = jax.block_until_ready(ts)
             run[4].append((time.perf_counter() - t0) / epochs)
-    ratios = np.asarray(runs[1][4]) / np.asarray(runs[0][4])
     rows = []
     for p, _, _, first, per in runs:
         steps, s = p.config.num_envs * p.config.rollout_len, float(np.median(per))
         rows.append({"method": p.name, "engine": engine_name(p.task), "objects": len(p.task.trajectories),
                      "num_envs": p.config.num_envs, "first_epoch_s": round(first, 2), "s_per_epoch": round(s, 4),
                      "physics_steps_per_s": round(steps * p.task.substeps / s, 1), **machine()})
-    return {"program": rows[0], "baseline": rows[1], "rounds": rounds, "ratio": round(float(np.median(ratios)), 3),
-            "ratio_min": round(float(ratios.min()), 3), "ratio_max": round(float(ratios.max()), 3)}
+    return {"program": rows[0], "baseline": rows[1], **_ratios(runs[0][4], runs[1][4])}
 
 
 def bench_soak(task: Env, dampings: list[float], num_envs: int, steps: int, seed: int = 0) -> list[dict]:

@@ -37,8 +37,7 @@ def main() -> None:
     args = ap.parse_args()
     avoid_lapack_deadlock()  # before the C engine's rows start JAX (MJX-JAX on a CPU: RESULTS.md §1)
     folder = Path(tempfile.mkdtemp(prefix="mixed_structure_"))
-    objects = [p for c in procedural.GENERALIST_MIX for p in procedural.synthesize(c, 1, procedural.GENERALIST_SEED,
-                                                                                    folder)]
+    objects = procedural.synthesize_mix(dict.fromkeys(procedural.GENERALIST_MIX, 1), procedural.GENERALIST_SEED, folder)
     one = procedural.default_object()
     if args.train:
         return train_pairs(args, objects, one)
@@ -46,7 +45,7 @@ def main() -> None:
     rows = []
     for engine in args.engines.split(","):
         name, worlds, steps = engine.split(":")
-        backend, impl = ("mujoco", "jax") if name == "mujoco" else ("mjx", name.split("-")[1])
+        backend, impl = engine_of(name)
         mixed = mix_of([load_task(str(o), t, backend, impl, slots=TEMPLATE_SLOTS)
                         for o, t in zip(objects, trajectories, strict=True)])
         pair = bench_env_pair(mixed, load_task(str(one), None, backend, impl), int(worlds), int(steps), args.rounds)
@@ -66,11 +65,16 @@ def main() -> None:
               f"{b['compile_s']:.0f} s |")
 
 
+def engine_of(name: str) -> tuple[str, str]:
+    """(backend, impl) of an engine's name (``bench.engine_name``'s: mujoco, mjx-jax, mjx-warp)."""
+    return ("mujoco", "jax") if name == "mujoco" else ("mjx", name.split("-")[1])
+
+
 def train_pairs(args, objects: list[Path], one: Path) -> None:
     rows = []
     for engine in args.train.split(","):
         name, envs = engine.split(":")
-        backend, impl = ("mujoco", "jax") if name == "mujoco" else ("mjx", name.split("-")[1])
+        backend, impl = engine_of(name)
         mixed, alone = (program_of(method_spec(GENERALIST, o, {"num_envs": int(envs)}, backend=backend, impl=impl))
                         for o in ([str(p) for p in objects], str(one)))
         pair = bench_train_pair(mixed, alone, rounds=args.rounds)

@@ -42,8 +42,7 @@ def main() -> None:
     args = ap.parse_args()
     avoid_lapack_deadlock()  # before the C engine starts JAX (MJX-JAX on a CPU: RESULTS.md §1)
     folder = Path(tempfile.mkdtemp(prefix="template_parity_"))
-    objects = [p for c in procedural.GENERALIST_MIX for p in procedural.synthesize(c, 1, procedural.GENERALIST_SEED,
-                                                                                    folder)]
+    objects = procedural.synthesize_mix(dict.fromkeys(procedural.GENERALIST_MIX, 1), procedural.GENERALIST_SEED, folder)
     protocol = EvalProtocol(dampings=(args.damping,), modes=("det",), episodes=args.episodes)
     rows = []
     for o in objects:
