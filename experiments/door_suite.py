@@ -5,6 +5,10 @@ unseen doors, and thick handles on heavy doors.
     python experiments/door_suite.py --candidates 12 --seed 100 --out results/suite
     python experiments/door_suite.py --remeasure results/suite/suite.json --object-contact hand --expert-grasp seated \
         --out results/suite/seated_hand.jsonl
+    python experiments/door_suite.py --remeasure results/suite/suite.json --object-contact hand --finger-force-limit 2 \
+        --out results/suite/planned_hand_f2.jsonl
+    python experiments/door_suite.py --remeasure results/suite/suite.json --expert-placement holds \
+        --out results/suite/holds_mujoco.jsonl
     python experiments/door_suite.py --table results/suite --out results/suite/table.md
 
 Each candidate is a procedural object (``objects synth --category C --count 1 --seed S``) with its trajectory; its
@@ -20,16 +24,19 @@ envelope is the expert drag replayed on the C engine from its exact grasp at eac
 Writes OUT/candidates.jsonl (every candidate: category, seed, mass, handle, gate, envelope, classes) and
 OUT/suite.json (the chosen: category, seed and why), read by ``tests/experiments/test_door_suite.py``. With
 ``--remeasure SUITE`` it writes the suite's envelopes under other object contacts and expert grasp instead (a lever
-on the expert, judged on the suite); with ``--table DIR`` the table of the suite's envelopes, today's beside each
-remeasured setting (DIR's ``*_*.jsonl``)."""
+on the expert, judged on the suite), each cell's peak wrist load and deepest penetration beside it, and at x16 at the
+expert's pace (how much load the grasp holds); with ``--table DIR`` the table of the suite's envelopes, today's beside
+each remeasured setting (DIR's ``*_*.jsonl``), and the table of what each remeasured setting's grasp holds."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
+from dragmesh2_jax.assets.hand import HandConfig
 from dragmesh2_jax.assets.procedural import synthesize
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.runs.build import load_task
@@ -39,15 +46,42 @@ from dragmesh2_jax.task.expert import expert_replay
 CATEGORIES = ("door_cabinet", "microwave", "refrigerator")
 PACES = (0.33, 0.5, 1.0)
 DAMPINGS = (1.0, 4.0, 8.0)
+#: Beyond the envelope, at the expert's pace only: the load a grasp holds (``remeasure``).
+CAPACITY_DAMPINGS = (16.0,)
+#: Today's settings remeasured with replays (``--remeasure`` at the defaults): the capacity table's base.
+TODAY = "planned_mujoco"
 THICK, HEAVY = 0.018, 1.0  # m (world: 46 mm at the paper's scale is 18 mm at the scene's 0.4), kg
 SIZE = 24
 
 
+def cells(capacity: bool = False) -> list[tuple[float, float]]:
+    """The envelope's ``(pace, damping)`` cells, with the capacity's beyond it."""
+    return [(p, d) for p in PACES for d in DAMPINGS] + ([(1.0, d) for d in CAPACITY_DAMPINGS] if capacity else [])
+
+
+def replays(task, capacity: bool = False) -> dict[str, dict]:
+    """The expert drag at each cell (keys ``"0.5@4"``) within the episode: whether it opens the part, its peak wrist
+    load (N) and its deepest hand-object penetration (mm)."""
+    out = {}
+    for pace, damping in cells(capacity):
+        r = expert_replay(task.scene, task.traj, task.config, task.substeps, damping, pace)
+        out[f"{pace:g}@{damping:g}"] = {"opened": r.steps is not None, "load_n": round(r.peak_load, 1),
+                                        "deepest_mm": round(1000 * r.deepest, 2)}
+    return out
+
+
 def envelope(task) -> dict[str, bool]:
     """Whether the expert drag opens the part at each ``pace x damping`` (keys ``"0.5@4"``) within the episode."""
-    return {f"{pace:g}@{damping:g}": expert_replay(task.scene, task.traj, task.config, task.substeps, damping,
-                                                   pace).steps is not None
-            for pace in PACES for damping in DAMPINGS}
+    return {k: r["opened"] for k, r in replays(task).items()}
+
+
+def holds(rows: dict) -> tuple[float | None, float | None]:
+    """From a remeasured object's replays: the load its grasp held (the peak wrist load of the hardest cell opened at
+    the expert's pace) and the load at which it let go (of the easiest cell not opened there); None where none."""
+    own = sorted(((float(k.split("@")[1]), r) for k, r in rows.items() if k.startswith("1@")), key=lambda x: x[0])
+    held = [r["load_n"] for _, r in own if r["opened"]]
+    lost = [r["load_n"] for _, r in own if not r["opened"]]
+    return (held[-1] if held else None), (lost[0] if lost else None)
 
 
 def classes(env: dict[str, bool], mass: float, thickness: float) -> list[str]:
@@ -91,17 +125,57 @@ def table(folder: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
-def remeasure(objects: list[dict], object_contact: str, expert_grasp: str, out: Path) -> None:
-    """The envelopes of ``objects`` (a suite's) under ``object_contact`` and ``expert_grasp``, as JSON lines."""
+def capacity_table(folder: Path) -> str:
+    """Per suite object, under each remeasured setting with replays (DIR's ``*_*.jsonl``): the load its grasp held at
+    the expert's pace (x1-x16) and the load at which it let go, and the deepest penetration of the cells it opened;
+    then the objects whose grasp held twice the load at which today's (``TODAY``, remeasured with replays) let go."""
+    suite = json.loads((folder / "suite.json").read_text())["objects"]
+    sets = {f.stem: {(r["category"], r["seed"]): r for r in map(json.loads, f.open())}
+            for f in sorted(folder.glob("*_*.jsonl"))}
+    sets = {k: v for k, v in sets.items() if all("replays" in r for r in v.values())}
+    if TODAY not in sets:
+        return ""
+    sets = {TODAY: sets.pop(TODAY), **sets}
+    lines = ["| object | " + " | ".join(sets) + " |", "|---" * (1 + len(sets)) + "|"]
+    base = sets[TODAY]
+    doubled = dict.fromkeys(sets, 0)
+    for o in suite:
+        key = (o["category"], o["seed"])
+        lost = holds(base[key]["replays"])[1] if base[key]["gate"] else None
+        row = []
+        for name, s in sets.items():
+            if not s[key]["gate"]:
+                row.append("gate fails")
+                continue
+            held, let_go = holds(s[key]["replays"])
+            deepest = max((r["deepest_mm"] for r in s[key]["replays"].values() if r["opened"]), default=0.0)
+            doubled[name] += bool(lost is not None and held is not None and held >= 2 * lost)
+            row.append(f"{held or 0:.0f} / {'-' if let_go is None else f'{let_go:.0f}'} N, {deepest:.1f} mm")
+        lines.append(f"| {o['category']} {o['seed']} | " + " | ".join(row) + " |")
+    lines.append(f"| held twice the load {TODAY} lets go at | " + " | ".join(f"{doubled[n]}" for n in sets) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def remeasure(objects: list[dict], object_contact: str, expert_grasp: str, expert_placement: str,
+              finger_force_limit: float, out: Path) -> None:
+    """The envelopes of ``objects`` (a suite's) under ``object_contact``, ``expert_grasp``, ``expert_placement`` and
+    the finger drives' torque limit, with each cell's replay and the capacity's cells, as JSON lines."""
     rows = []
+    hand = HandConfig()
+    hand = replace(hand, finger=replace(hand.finger, force_limit=finger_force_limit))
     with tempfile.TemporaryDirectory() as tmp:
         for o in objects:
             (folder,) = synthesize(o["category"], 1, o["seed"], Path(tmp) / o["category"])
-            scene = SceneConfig(object_contact=object_contact)
-            task = load_task(str(folder), None, backend="mujoco", scene_config=scene, expert_grasp=expert_grasp)
+            scene = SceneConfig(object_contact=object_contact, hand=hand)
+            task = load_task(str(folder), None, backend="mujoco", scene_config=scene, expert_grasp=expert_grasp,
+                             expert_placement=expert_placement)
             passed = bool(task.traj.header["quality"]["passed"])
-            rows.append({**o, "object_contact": object_contact, "expert_grasp": expert_grasp, "gate": passed,
-                         "envelope": envelope(task) if passed else {}})
+            runs = replays(task, capacity=True) if passed else {}
+            rows.append({**o, "object_contact": object_contact, "expert_grasp": expert_grasp,
+                         "expert_placement": expert_placement, "placement": task.traj.header["generator"]["placement"],
+                         "finger_force_limit": finger_force_limit, "gate": passed,
+                         "envelope": {k: r["opened"] for k, r in runs.items() if k in dict.fromkeys(
+                             f"{p:g}@{d:g}" for p, d in cells())}, "replays": runs})
             print(json.dumps(rows[-1]), flush=True)
     atomic_write_text(out, "".join(json.dumps(r) + "\n" for r in rows))
 
@@ -115,13 +189,16 @@ def main() -> None:
     ap.add_argument("--table", help="a suite folder: the table of its envelopes")
     ap.add_argument("--object-contact", default="mujoco", choices=("mujoco", "hand"))
     ap.add_argument("--expert-grasp", default="planned", choices=("planned", "seated"))
+    ap.add_argument("--expert-placement", default="first", choices=("first", "holds"))
+    ap.add_argument("--finger-force-limit", type=float, default=HandConfig().finger.force_limit,
+                    help="the finger drives' torque limit (N m)")
     args = ap.parse_args()
     if args.table:
-        atomic_write_text(args.out, table(Path(args.table)))
+        atomic_write_text(args.out, table(Path(args.table)) + "\n" + capacity_table(Path(args.table)))
         return
     if args.remeasure:
         remeasure(json.loads(Path(args.remeasure).read_text())["objects"], args.object_contact, args.expert_grasp,
-                  Path(args.out))
+                  args.expert_placement, args.finger_force_limit, Path(args.out))
         return
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,29 +1,39 @@
 #!/usr/bin/env bash
 # One-seed lever screens on the suite (rules: results/screen/RULE.md): today's recipe against the recipe with one
 # lever (hand_seated: the hand's contacts and the seated grasp; pace: the palm's speed bounded as a second CMDP
-# constraint beside the recipe's load bound, its rate of steps past it; pace_peak: each episode's peak), on three suite doors today's expert lets go at x4 and x8; resumable (a
-# finished run or evaluation is kept).  Usage: bash experiments/hold_screen.sh [RUNS] [LEVER ...]
+# constraint beside the recipe's load bound, its rate of steps past it; pace_peak: each episode's peak; holds: the
+# expert's placement chosen by the load it holds), on three suite doors today's expert lets go at x4 and x8; resumable (a
+# finished run or evaluation is kept).  Usage: [SEEDS="0 1 2"] [WITH_TODAY=0] bash experiments/hold_screen.sh [RUNS] [LEVER ...]
+# (seed 0's run is RUNS/LEVER_OBJECT, seed S's RUNS/LEVER_OBJECT_sS)
 set -euo pipefail
 RUNS=${1:-runs/screen}
 shift || true
 LEVERS=("${@:-hand_seated}")
+SEEDS=${SEEDS:-0}
+WITH_TODAY=${WITH_TODAY:-1}  # 0: the levers' runs alone
 mkdir -p runs/suite
 for spec in door_cabinet:107 door_cabinet:109 microwave:104; do
   dragmesh2 objects synth --category "${spec%%:*}" --count 1 --seed "${spec##*:}" --out runs/suite > /dev/null
 done
 for obj in door_cabinet_0107 door_cabinet_0109 microwave_0104; do
-  for lever in today "${LEVERS[@]}"; do
+  settings=("${LEVERS[@]}")
+  [ "$WITH_TODAY" = 0 ] || settings=(today "${LEVERS[@]}")
+  for lever in "${settings[@]}"; do
+   for seed in $SEEDS; do
     run="$RUNS/${lever}_$obj"
+    [ "$seed" = 0 ] || run="${run}_s$seed"
     extra=()
     [ "$lever" = hand_seated ] && extra=(--scene.object-contact hand --task.expert-grasp seated)
     [ "$lever" = pace ] && extra=(--task.reward.constraints \
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:rate:0.05:1:20)
+    [ "$lever" = holds ] && extra=(--task.expert-placement holds)
     [ "$lever" = pace_peak ] && extra=(--task.reward.constraints \
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:peak:0.05:1:20)
-    [ -d "$run/seed_0/checkpoints/final" ] || \
-      dragmesh2 train --object "runs/suite/$obj" --out "$run" --seeds 0 --backend mujoco --quiet "${extra[@]}"
+    [ -d "$run/seed_$seed/checkpoints/final" ] || \
+      dragmesh2 train --object "runs/suite/$obj" --out "$run" --seeds "$seed" --backend mujoco --quiet "${extra[@]}"
     [ -s "$run.eval.json" ] || \
-      dragmesh2 evaluate --checkpoint "$run/seed_0" --damping 1,2,4,8 --mode det --episodes 50 --backend mujoco \
+      dragmesh2 evaluate --checkpoint "$run/seed_$seed" --damping 1,2,4,8 --mode det --episodes 50 --backend mujoco \
         --json --quiet > "$run.eval.json"
+   done
   done
 done

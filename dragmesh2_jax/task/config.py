@@ -100,6 +100,10 @@ ExpertUnit = Literal["grasp", "start"]
 #: wrist, 1 rad for the fingers), which the drives press the hand into; "seated", where the handle stopped that pose,
 #: the wrist's target there and the fingers' ``grip_closure`` past it (generator 1.2; RESULTS.md, penetration).
 ExpertGrasp = Literal["seated", "planned"]
+#: Which of the generator's palm placements the expert grasps with (``expert_placement``): "first", the first that
+#: passes its gate and grips the handle; "holds", of those that pass, the one whose drag still opens the part at the
+#: highest damping (``trajectory.generator.HOLD_DAMPINGS``; RESULTS.md, the suite).
+ExpertPlacement = Literal["first", "holds"]
 EXPERT_UNITS = get_args(ExpertUnit)
 #: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
 #: grasp and the wrist's rotation keep the policy's whole range).
@@ -311,6 +315,8 @@ class TaskConfig:
     """beyond the paper, the unit of the relative_load measure (EXPERT_UNITS' comment)"""
     expert_grasp: ExpertGrasp = "planned"
     """beyond the paper, the grasp the generated trajectory holds the handle with (ExpertGrasp's comment)"""
+    expert_placement: ExpertPlacement = "first"
+    """beyond the paper, which palm placement the generated trajectory grasps with (ExpertPlacement's comment)"""
     grip_closure: float = 0.04
     """rad, under the seated grasp: how far past where the handle stopped them the fingers' targets close (the grip's
     force, at most the finger drives' limit; below alpha, so that the expert's own action stays inside its bound)"""

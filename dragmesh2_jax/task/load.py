@@ -25,9 +25,10 @@ def adopt_trajectory_target(obj, traj: Trajectory):
 
 
 def generator_params(config: TaskConfig) -> GeneratorParams:
-    """How the task's trajectory is generated where none is given: its expert grasp."""
+    """How the task's trajectory is generated where none is given: its expert grasp and placement."""
     return GeneratorParams(seat_depth=SEAT_DEPTH if config.expert_grasp == "seated" else None,
-                           grip_closure=config.grip_closure)
+                           grip_closure=config.grip_closure, placement_choice=config.expert_placement,
+                           hold_steps=config.episode_length)
 
 
 def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskConfig,

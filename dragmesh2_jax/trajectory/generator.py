@@ -17,6 +17,11 @@ fingers around it as it pulls, but a policy, whose zero action leaves the finger
 handle to undirected exploration within a few dozen steps and learns not to pull (RESULTS.md §1, the drawer
 regression). When no passing placement grips, the first that passes is kept and the header says so.
 
+Beyond the paper, the placements may instead be ranked by the load they hold (``GeneratorParams.placement_choice``
+"holds"): every passing placement's expert drag is replayed from the task's reset state at each of ``HOLD_DAMPINGS`` x
+the nominal damping, and the one that still opens the part past q_done at the highest is kept (then the gripping one,
+then the first): the first gripping placement lets go of doors under load that another holds (RESULTS.md, the suite).
+
 A grasp may be seated (``GeneratorParams.seat_depth``): the planned pose lies inside the handle, so each placement's
 plan is executed once, the hand taken where the handle stopped it (moved out where it is deeper than the seat depth:
 ``grasp.seat``), and the plan executed again with the wrist's target there and the fingers' ``grip_closure`` past it.
@@ -29,6 +34,7 @@ import itertools
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import mujoco
 import numpy as np
@@ -40,6 +46,7 @@ from dragmesh2_jax.assets.target import opening_direction
 from dragmesh2_jax.assets.urdf import axis_angle_matrix
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import cache_dir, hash_files, object_hash
+from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, Scene, SceneConfig, build_scene, contact_depth
 from dragmesh2_jax.trajectory import grasp
 from dragmesh2_jax.trajectory.schema import Frame, Trajectory, read_trajectory, write_trajectory
@@ -47,6 +54,9 @@ from dragmesh2_jax.trajectory.schema import Frame, Trajectory, read_trajectory, 
 #: Every 2 pi shift of three Euler angles (-1, 0, +1 turns each), in the order the nearest one is picked by.
 EULER_SHIFTS = 2 * np.pi * np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=np.float64)
 GENERATOR_VERSION = "1.2"  # 1.1: the grip at the drag start picks among the passing placements; 1.2: seated grasps
+#: The damping multipliers a placement's drag is executed at to rank the placements by the load they hold (the
+#: recipe's training range, an octave apart, and one beyond it), in order: ranking stops at the first not opened.
+HOLD_DAMPINGS = (2.0, 4.0, 8.0, 16.0)
 #: The seated grasp's depth (m): deeper than this, the hand is moved out of the handle (``grasp.seat``); under the
 #: hand's object contacts the grasp the handle stopped is 0.7-1.1 mm deep on the packaged objects and 45261, so it
 #: stays where the handle stopped it.
@@ -98,6 +108,10 @@ class GeneratorParams:
     # None: that planned grasp (generator 1.1), the default: the seated one does not yet open small handles
     seat_depth: float | None = None  # m; SEAT_DEPTH seats it
     grip_closure: float = 0.04  # rad
+    # which passing placement is kept: "first", the first that grips; "holds", the one whose drag opens the part at
+    # the highest of HOLD_DAMPINGS (``holds``), replayed over an episode of ``hold_steps`` control steps
+    placement_choice: Literal["first", "holds"] = "first"
+    hold_steps: int = 300
 
     def __post_init__(self):
         for k in ("approach_frames", "grasp_frames", "drag_frames", "release_frames", "substeps"):
@@ -359,6 +373,26 @@ def generate(obj: GAPartNetObject, params: GeneratorParams = GeneratorParams(), 
     return traj
 
 
+def holds(scene: Scene, frames: list[Frame], params: GeneratorParams) -> float:
+    """The highest of 1 and ``HOLD_DAMPINGS`` (in order, up to the first not reached) at which the expert drag of
+    ``frames`` takes the part past q_done within an episode: its hand targets replayed as the task's expert prior
+    holds them (within the hand's ranges, the last held to ``params.hold_steps`` control steps) from the state the task
+    resets to, at that multiple of the nominal damping."""
+    dt = scene.config.timestep * params.substeps
+    traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)},
+                                             "scene": {"frame_dt": dt}, **_grip_header(frames, params)})
+    targets = traj.drag_targets(dt)
+    lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
+    targets = np.clip(targets[np.minimum(np.arange(params.hold_steps), len(targets) - 1)], lo, hi)
+    held = 1.0
+    for damping in HOLD_DAMPINGS:
+        if contacts.replay(scene, (traj.start_hand_q, traj.q_start), targets, params.substeps,
+                           RESET_SETTLE_SUBSTEPS, traj.q_done, damping).steps is None:
+            break
+        held = damping
+    return held
+
+
 def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Trajectory:
     t0 = time.time()
     extent = drag_extent(scene, params)
@@ -374,14 +408,15 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
                                 params.seat_depth)
             frames, stats = execute(scene, make_plan(scene, params, placement, seated), params)
         q = quality(scene, frames, stats, params, extent)
+        held = holds(scene, frames, params) if q["passed"] and params.placement_choice == "holds" else 1.0
         attempts.append({"placement": k, **{x: q[x] for x in ("passed", "grip", "handle_contacts", "handle_force_n",
                                                                  "achieved_opening", "max_penetration_m",
-                                                                 "max_palm_distance_m")}})
-        # gripping and passing, then passing (the first of each), then the farthest opening
-        rank = (q["passed"] and q["grip"], q["passed"], 0.0 if q["passed"] else q["achieved_opening"])
+                                                                 "max_palm_distance_m")}, "holds": held})
+        # passing, holding the most (ranked by it), gripping (the first of each), then the farthest opening
+        rank = (q["passed"], held, q["grip"], 0.0 if q["passed"] else q["achieved_opening"])
         if best is None or rank > best[0]:
             best = (rank, frames, q, k, placement)
-        if q["passed"] and q["grip"]:
+        if q["passed"] and q["grip"] and params.placement_choice == "first":
             break
     _, frames, q, k, placement = best
     if q["passed"] and not q["grip"]:

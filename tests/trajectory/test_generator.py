@@ -6,7 +6,8 @@ import pytest
 
 from dragmesh2_jax.assets import procedural
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
-from dragmesh2_jax.scene import contact_depth
+from dragmesh2_jax.physics import contacts
+from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, build_scene, contact_depth
 from dragmesh2_jax.trajectory import generator
 from dragmesh2_jax.trajectory.generator import GeneratorParams, continuous_euler, generate
 from dragmesh2_jax.trajectory.schema import PHASES
@@ -128,3 +129,25 @@ def test_a_fingertip_grasp_is_passed_over_for_one_that_grips_the_handle():
     assert kept["passed"] and kept["grip"] and kept["handle_force_n"] >= 10 * wanted and kept["handle_contacts"] >= 5
     q = t.header["quality"]
     assert q["passed"] and q["grip"] and "note" not in q
+
+
+def test_the_placement_that_holds_under_load_is_kept_over_the_first_that_grips(tmp_path):
+    """A suite door (procedural door_cabinet 107): the first placement that grips lets go when the door's damping is
+    4x; ranked by the load it holds (``placement_choice="holds"``), the generator replays every passing placement's drag
+    as the task's expert prior does, at 2-16x the damping, and keeps the one that opens the door at the highest."""
+    (folder,) = procedural.synthesize("door_cabinet", 1, 107, tmp_path)
+    obj = load_gapartnet(str(folder))
+    first = generate(obj)
+    held = generate(obj, GeneratorParams(placement_choice="holds"))
+    attempts, kept = held.header["generator"]["attempts"], held.header["generator"]["placement"]
+    assert first.header["generator"]["placement"] != kept and held.header["quality"]["passed"]
+    assert attempts[kept]["holds"] == max(a["holds"] for a in attempts if a["passed"]) >= 4.0
+    assert all(a["holds"] == 1.0 for a in first.header["generator"]["attempts"])  # "first" replays nothing
+    scene = build_scene(obj)
+    replayed = {}
+    for name, t in (("first", first), ("held", held)):
+        targets = t.drag_targets(1 / 60)
+        targets = targets[np.minimum(np.arange(300), len(targets) - 1)]
+        replayed[name] = contacts.replay(scene, (t.start_hand_q, t.q_start), targets, 4, RESET_SETTLE_SUBSTEPS,
+                                         t.q_done, 4.0).steps
+    assert replayed["first"] is None and replayed["held"] is not None, replayed
