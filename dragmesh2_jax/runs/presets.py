@@ -259,6 +259,11 @@ METHODS = {m.name: m for m in (
            "150 epochs, read at its final checkpoint",
            {**HORIZON_RESIDUAL, **reach(0.25, "translation")},
            status="recommended", evidence="RESULTS.md, the recipe"),
+    Method("hold_blind_residual_holds", "hold_blind_residual_pull over the expert drag whose palm placement holds the "
+           "most load (task.expert_placement holds): on the suite's hardest doors it holds x4 and x8 where the recipe "
+           "lets go, pulling 1.2-1.7x the recipe's load at x1; 150 epochs, read at its final checkpoint",
+           {**HORIZON_RESIDUAL, **reach(0.25, "translation"), "task.expert_placement": "holds"},
+           status="experimental", evidence="results/screen/RULE.md"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
