@@ -25,6 +25,8 @@ then the first): the first gripping placement lets go of doors under load that a
 A grasp may be seated (``GeneratorParams.seat_depth``): the planned pose lies inside the handle, so each placement's
 plan is executed once, the hand taken where the handle stopped it (moved out where it is deeper than the seat depth:
 ``grasp.seat``), and the plan executed again with the wrist's target there and the fingers' ``grip_closure`` past it.
+Where no seated placement passes the gate, the planned ones (executed on the way) are ranked instead, and the header's
+``generator.seated`` says which was kept.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -53,7 +55,9 @@ from dragmesh2_jax.trajectory.schema import Frame, Trajectory, read_trajectory, 
 
 #: Every 2 pi shift of three Euler angles (-1, 0, +1 turns each), in the order the nearest one is picked by.
 EULER_SHIFTS = 2 * np.pi * np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=np.float64)
-GENERATOR_VERSION = "1.2"  # 1.1: the grip at the drag start picks among the passing placements; 1.2: seated grasps
+# 1.1: the grip at the drag start picks among the passing placements; 1.2: seated grasps; 1.3: a seated grasp falls
+# back to the planned placements where no seated one passes the gate
+GENERATOR_VERSION = "1.3"
 #: The damping multipliers a placement's drag is executed at to rank the placements by the load they hold (the
 #: recipe's training range, an octave apart, and one beyond it), in order: ranking stops at the first not opened.
 HOLD_DAMPINGS = (2.0, 4.0, 8.0, 16.0)
@@ -398,27 +402,40 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
     extent = drag_extent(scene, params)
     if extent <= 0:
         raise DragMeshError(f"{obj.folder}: target joint has no range to drag through")
-    attempts = []
-    best = None
+    attempts, best, planned = [], None, []
+    unseated = replace(params, seat_depth=None)
+
+    def consider(k: int, placement: grasp.GraspParams, frames: list[Frame], stats: dict,
+                 kind: GeneratorParams) -> bool:
+        """Rank one executed placement (``kind``: the params it was executed under, seated or not); whether the
+        search stops at it."""
+        nonlocal best
+        q = quality(scene, frames, stats, kind, extent)
+        held = holds(scene, frames, kind) if q["passed"] and params.placement_choice == "holds" else 1.0
+        attempts.append({"placement": k, "seated": kind.seat_depth is not None, **{
+            x: q[x] for x in ("passed", "grip", "handle_contacts", "handle_force_n", "achieved_opening",
+                              "max_penetration_m", "max_palm_distance_m")}, "holds": held})
+        # passing, holding the most (ranked by it), gripping (the first of each), then the farthest opening
+        rank = (q["passed"], held, q["grip"], 0.0 if q["passed"] else q["achieved_opening"])
+        if best is None or rank > best[0]:
+            best = (rank, frames, q, k, placement, kind)
+        return q["passed"] and q["grip"] and params.placement_choice == "first"
+
     for k, placement in enumerate(params.placements):
         frames, stats = execute(scene, make_plan(scene, params, placement), params)
         if params.seat_depth is not None:
+            planned.append((k, placement, frames, stats))
             start = frames[Trajectory(tuple(frames), header={}).drag_start]
             seated = grasp.seat(scene, np.asarray(start.hand_q), start.joint_positions[_target_index(scene)],
                                 params.seat_depth)
             frames, stats = execute(scene, make_plan(scene, params, placement, seated), params)
-        q = quality(scene, frames, stats, params, extent)
-        held = holds(scene, frames, params) if q["passed"] and params.placement_choice == "holds" else 1.0
-        attempts.append({"placement": k, **{x: q[x] for x in ("passed", "grip", "handle_contacts", "handle_force_n",
-                                                                 "achieved_opening", "max_penetration_m",
-                                                                 "max_palm_distance_m")}, "holds": held})
-        # passing, holding the most (ranked by it), gripping (the first of each), then the farthest opening
-        rank = (q["passed"], held, q["grip"], 0.0 if q["passed"] else q["achieved_opening"])
-        if best is None or rank > best[0]:
-            best = (rank, frames, q, k, placement)
-        if q["passed"] and q["grip"] and params.placement_choice == "first":
+        if consider(k, placement, frames, stats, params):
             break
-    _, frames, q, k, placement = best
+    if not best[2]["passed"]:  # no seated placement passes: the planned ones, executed on the way, are the grasp
+        for k, placement, frames, stats in planned:
+            if consider(k, placement, frames, stats, unseated):
+                break
+    _, frames, q, k, placement, kept = best
     if q["passed"] and not q["grip"]:
         q["note"] = (f"no passing placement grips the handle at the drag start: the hand presses on it with "
                      f"{q['handle_force_n']} N in the one kept, {params.min_grip_force} N wanted")
@@ -436,8 +453,9 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
                   "timestep": scene.config.timestep, "substeps_per_frame": params.substeps,
                   "frame_dt": scene.config.timestep * params.substeps, "damping": scene.config.damping},
         "generator": {"version": GENERATOR_VERSION, "params": _jsonable(asdict(params)), "placement": k,
-                      "placement_params": asdict(placement), "attempts": attempts},
-        "quality": q, "wall_s": round(time.time() - t0, 3), **_grip_header(frames, params),
+                      "placement_params": asdict(placement), "seated": kept.seat_depth is not None,
+                      "attempts": attempts},
+        "quality": q, "wall_s": round(time.time() - t0, 3), **_grip_header(frames, kept),
         "hand": {"side": scene.config.hand.side, "dof_names": list(hand_lib.dof_names(scene.config.hand.side))},
     }
     return Trajectory(frames=tuple(frames), header=header)

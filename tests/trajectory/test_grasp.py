@@ -7,12 +7,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from dragmesh2_jax.assets.procedural import packaged_object
+from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.assets.procedural import packaged_object, synthesize
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import SceneConfig, contact_depth
 from dragmesh2_jax.task.expert import expert_replay
 from dragmesh2_jax.trajectory import grasp
-from dragmesh2_jax.trajectory.generator import SEAT_DEPTH
+from dragmesh2_jax.trajectory.generator import SEAT_DEPTH, GeneratorParams, generate
 
 #: The deepest the hand may be in the handle (m): the issue's bound; grasp datasets hold under 1 mm.
 MAX_DEPTH = 0.002
@@ -64,3 +65,16 @@ def test_seat_moves_a_grasp_pressed_into_the_handle_out_of_it_and_leaves_one_on_
     closed = grasp.gripping(seated[6:], 0.04)
     moved = np.flatnonzero(closed != seated[6:])
     assert set(moved) <= set(grasp.CLOSING) and np.all(np.abs(closed - seated[6:]) <= 0.04 + 1e-12)
+
+
+def test_a_seated_grasp_that_passes_nowhere_falls_back_to_a_planned_placement_that_does(tmp_path):
+    """A suite microwave (procedural microwave 110): no placement's seated grasp opens it past the gate, so the
+    generator keeps a planned placement (its fingers where the plan left them: no ``grip`` in the header), which
+    does, and says so."""
+    (folder,) = synthesize("microwave", 1, 110, tmp_path)
+    t = generate(load_gapartnet(str(folder)), GeneratorParams(seat_depth=SEAT_DEPTH))
+    attempts = t.header["generator"]["attempts"]
+    assert not any(a["passed"] for a in attempts if a["seated"]) and any(not a["seated"] for a in attempts)
+    assert t.header["quality"]["passed"] and t.header["generator"]["seated"] is False and "grip" not in t.header
+    kept = t.header["generator"]["placement"]
+    assert next(a for a in attempts if not a["seated"] and a["placement"] == kept)["passed"]
