@@ -264,6 +264,13 @@ METHODS = {m.name: m for m in (
            "lets go, pulling 1.2-1.7x the recipe's load at x1; 150 epochs, read at its final checkpoint",
            {**HORIZON_RESIDUAL, **reach(0.25, "translation"), "task.expert_placement": "holds"},
            status="experimental", evidence="results/screen/RULE.md"),
+    Method("hold_blind_residual_seated", "hold_blind_residual_pull over the seated expert grasp whose placement holds "
+           "the most load (task.expert_grasp seated, task.expert_placement holds; a planned placement where no seated "
+           "one passes the gate): the hand light where nothing resists, its pull growing with the load; 150 epochs, "
+           "read at its final checkpoint",
+           {**HORIZON_RESIDUAL, **reach(0.25, "translation"), "task.expert_grasp": "seated",
+            "task.expert_placement": "holds"},
+           status="experimental", evidence="results/screen/RULE.md"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
