@@ -174,8 +174,8 @@ def remeasure(objects: list[dict], object_contact: str, expert_grasp: str, exper
             rows.append({**o, "object_contact": object_contact, "expert_grasp": expert_grasp,
                          "expert_placement": expert_placement, "placement": task.traj.header["generator"]["placement"],
                          "finger_force_limit": finger_force_limit, "gate": passed,
-                         "envelope": {k: r["opened"] for k, r in runs.items() if k in dict.fromkeys(
-                             f"{p:g}@{d:g}" for p, d in cells())}, "replays": runs})
+                         "envelope": {f"{p:g}@{d:g}": runs[f"{p:g}@{d:g}"]["opened"] for p, d in cells()} if passed
+                         else {}, "replays": runs})
             print(json.dumps(rows[-1]), flush=True)
     atomic_write_text(out, "".join(json.dumps(r) + "\n" for r in rows))
 

@@ -25,8 +25,7 @@ LOAD_DAMPINGS = (1.0, 2.0, 4.0, 8.0)
 
 def held_targets(traj: Trajectory, config: TaskConfig, pace: float = 1.0) -> np.ndarray:
     """The expert drag's hand target at ``pace`` for each control step of an episode, the last one held."""
-    targets = traj.drag_targets(config.control_dt, pace)
-    return targets[np.minimum(np.arange(config.episode_length), len(targets) - 1)]
+    return traj.held_targets(config.control_dt, config.episode_length, pace)
 
 
 def reachable_targets(scene: Scene, traj: Trajectory, config: TaskConfig, pace: float = 1.0) -> np.ndarray:

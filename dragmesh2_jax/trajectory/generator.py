@@ -385,9 +385,7 @@ def holds(scene: Scene, frames: list[Frame], params: GeneratorParams) -> float:
     dt = scene.config.timestep * params.substeps
     traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)},
                                              "scene": {"frame_dt": dt}, **_grip_header(frames, params)})
-    targets = traj.drag_targets(dt)
-    lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
-    targets = np.clip(targets[np.minimum(np.arange(params.hold_steps), len(targets) - 1)], lo, hi)
+    targets = np.clip(traj.held_targets(dt, params.hold_steps), scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1])
     held = 1.0
     for damping in HOLD_DAMPINGS:
         if contacts.replay(scene, (traj.start_hand_q, traj.q_start), targets, params.substeps,

@@ -166,6 +166,12 @@ class Trajectory:
         return np.stack([np.interp(t, np.arange(n), targets[:, j]) for j in range(targets.shape[1])],
                         1).astype(np.float32)
 
+    def held_targets(self, control_dt: float, steps: int, pace: float = 1.0) -> np.ndarray:
+        """:meth:`drag_targets` over an episode of ``steps`` control steps, the last target held (as an expert drag
+        replays it)."""
+        targets = self.drag_targets(control_dt, pace)
+        return targets[np.minimum(np.arange(steps), len(targets) - 1)]
+
     def drag_schedule(self, control_dt: float, steps: int) -> np.ndarray:
         """The target joint where the expert drag, at its own pace, puts it after each of ``steps`` control steps:
         the plan's q of the frame whose hand target the step applies (``drag_targets``), the last held once the drag

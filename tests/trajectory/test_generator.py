@@ -146,8 +146,6 @@ def test_the_placement_that_holds_under_load_is_kept_over_the_first_that_grips(t
     scene = build_scene(obj)
     replayed = {}
     for name, t in (("first", first), ("held", held)):
-        targets = t.drag_targets(1 / 60)
-        targets = targets[np.minimum(np.arange(300), len(targets) - 1)]
-        replayed[name] = contacts.replay(scene, (t.start_hand_q, t.q_start), targets, 4, RESET_SETTLE_SUBSTEPS,
-                                         t.q_done, 4.0).steps
+        replayed[name] = contacts.replay(scene, (t.start_hand_q, t.q_start), t.held_targets(1 / 60, 300), 4,
+                                         RESET_SETTLE_SUBSTEPS, t.q_done, 4.0).steps
     assert replayed["first"] is None and replayed["held"] is not None, replayed
