@@ -85,10 +85,10 @@ def main(argv=None) -> int:
     table, task = {}, None
     if a.object:
         task = protocol.task(load_task(a.object, None, backend="mujoco", reward=EXPERT_UNIT,
-                                         expert_load_unit=a.unit))
+                                       expert_load_unit=a.unit), costs=True)
     for label, folder in zip(a.labels or [Path(r).name for r in a.runs or ()], a.runs or (), strict=True):
         program, ts, _, _ = load_run(folder)
-        task = protocol.task(program.task)
+        task = protocol.task(program.task, costs=True)
         table[label] = spend(task, program.controller(ts), dampings, a.episodes)
     table["expert (its own pace)"] = spend(task, tracking_controller(task), dampings, a.episodes)
     print(f"{task.object_id}: share of steps past the expert's peak / mean excess past it / p95 of the episodes' "

@@ -54,10 +54,11 @@ class EvalProtocol:
         return (f"x{'-'.join(f'{d:g}' for d in self.dampings)}_{'-'.join(self.modes)}_n{self.episodes}_{starts}"
                 f"_s{self.seed}")
 
-    def task(self, task: Env) -> Env:
+    def task(self, task: Env, costs: bool = False) -> Env:
         """The protocol's task for ``task``'s object (or each object of a mix), trajectory and observation: its
-        starts; the damping is fixed per cell by the evaluator (``reset(key, damping_scale)``)."""
-        return task.with_starts(self.starts)
+        starts; the damping is fixed per cell by the evaluator (``reset(key, damping_scale)``). ``costs``: the
+        constraints' costs measured on it as in training (an evaluation counts none)."""
+        return task.with_starts(self.starts, costs)
 
 
 #: The paper's protocol with the project's perturbed starts (the default of ``evaluate``, ``reproduce``, the demo).

@@ -192,26 +192,27 @@ class Events:
 
 class PullTask:
     """One object, one trajectory, one config: the env of ``task/protocol.py`` (no automatic reset: see
-    ``wrappers.AutoReset``)."""
+    ``wrappers.AutoReset``). ``costs``: False for a task whose constraints' costs count for nothing (an evaluation's:
+    its multipliers stay zero), where one probe of the expert's load from the exact grasp stands for every start."""
 
-    def __init__(self, scene: Scene, traj: Trajectory, config: TaskConfig = TaskConfig(), start: Start | None = None):
+    def __init__(self, scene: Scene, traj: Trajectory, config: TaskConfig = TaskConfig(), start: Start | None = None,
+                 costs: bool = True):
         check_trajectory_matches(scene, traj)
         self.scene, self.traj, self.config = scene, traj, config
         starts = reset_starts(scene, traj, config.reset_noise, start, config.rho)
         self.backend = make_backend(scene, config, starts, traj)
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
         axis, radius, sign = joint_geometry(scene)
+        nominal = reset_starts(scene, traj, None, start, config.rho)[0]
         params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
                             q_done=jnp.float32(traj.q_done_at(config.rho)), damping=jnp.float32(scene.config.damping),
                             hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32),
-                            revolute=jnp.bool_(scene.ids.target_is_revolute),
+                            revolute=jnp.bool_(scene.ids.target_is_revolute), long_sign=jnp.float32(sign),
                             joint_axis=jnp.asarray(axis, jnp.float32), hinge_radius=jnp.float32(radius),
-                            long_sign=jnp.float32(sign),
                             schedule=jnp.asarray(traj.drag_schedule(config.control_dt, config.episode_length)),
                             drag=jnp.asarray(expert_drag(scene, traj, config)),
-                            expert_load=jnp.asarray(expert_load(scene, traj, config,
-                                                                reset_starts(scene, traj, None, start, config.rho)[0],
-                                                                starts, self.backend.substeps)),
+                            expert_load=jnp.asarray(expert_load(scene, traj, config, nominal, starts,
+                                                                self.backend.substeps, costs)),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
@@ -278,9 +279,9 @@ class PullTask:
         task.backend = self.backend.with_budget(budget)
         return task.bind(self.data.replace(physics=task.backend.data))
 
-    def with_starts(self, starts: ResetNoise | None) -> PullTask:
-        """This object and trajectory from other reset starts (an evaluation protocol's)."""
-        return PullTask(self.scene, self.traj, dataclasses.replace(self.config, reset_noise=starts))
+    def with_starts(self, starts: ResetNoise | None, costs: bool = False) -> PullTask:
+        """This object and trajectory from other reset starts (an evaluation protocol's; ``costs``: see the class)."""
+        return PullTask(self.scene, self.traj, dataclasses.replace(self.config, reset_noise=starts), costs=costs)
 
     def kinematics(self, state: State) -> Kinematics:
         return self.backend.kinematics(self.data.physics, state.physics)
@@ -306,8 +307,7 @@ class PullTask:
 
     def _token(self, e, a, k: Kinematics) -> jnp.ndarray:
         """h_t = [e_t, a_{t-1}] (paper), [e_t, a_{t-1}, f_t] with ``force_obs``."""
-        parts = [e, a, load(k)] if self.config.force_obs else [e, a]
-        return jnp.concatenate(parts).astype(jnp.float32)
+        return jnp.concatenate([e, a, load(k)] if self.config.force_obs else [e, a]).astype(jnp.float32)
 
     def _privileged(self, info, k: Kinematics) -> jnp.ndarray:  # and the peak constraints' memory: costs to come
         peak = np.asarray([x.cost in PEAK_COSTS for x in self.config.reward.constraints], bool)

@@ -4,11 +4,17 @@ object at the world's damping, so that one constraint bounds every object's pull
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+from pathlib import Path
+
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 
 from dragmesh2_jax.assets.hand import NUM_DOFS
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.io import atomic_write_bytes, cache_dir, object_hash
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.base import Start
 from dragmesh2_jax.scene import Scene
@@ -60,21 +66,48 @@ def residual_gain(config: TaskConfig) -> np.ndarray:
 
 
 def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Start, bank: list[Start],
-                substeps: int) -> np.ndarray:
+                substeps: int, per_start: bool = True) -> np.ndarray:
     """The expert drag's peak wrist load (N) at each of ``LOAD_DAMPINGS`` (columns), one row per start of the task's
-    reset ``bank``: every row from the task's unperturbed start ``nominal`` (``config.expert_load_unit`` "grasp") or
-    each from its own start ("start"), each up to success; probed only when a constraint reads ``relative_load``
-    (else NaN, never read)."""
+    reset ``bank``: every row from the task's unperturbed start ``nominal`` (``config.expert_load_unit`` "grasp", or
+    not ``per_start``) or each from its own start ("start"), each up to success; probed only when a constraint reads
+    ``relative_load`` (else NaN, never read)."""
     shape = (len(bank), len(LOAD_DAMPINGS))
     if not any(c.measure == RELATIVE_LOAD for c in config.reward.constraints):
         return np.full(shape, np.nan, np.float32)
     if scene.config.effector != "hand":
         raise DragMeshError(f"{RELATIVE_LOAD} needs the hand (the expert drag moves the hand, not a gripper)")
-    targets = reachable_targets(scene, traj, config)
-    peaks = [[contacts.peak_load(scene, s, targets, substeps, config.settle_substeps, traj.q_done_at(config.rho),
-                                 damping) for damping in LOAD_DAMPINGS]
-             for s in (bank if config.expert_load_unit == "start" else [nominal])]
+    targets, until = reachable_targets(scene, traj, config), traj.q_done_at(config.rho)
+    rows = bank if per_start and config.expert_load_unit == "start" else [nominal]
+    cache = _load_cache(scene, targets, rows, substeps, config.settle_substeps, until)
+    peaks = _read_peaks(cache, len(rows))
+    if peaks is None:
+        peaks = np.asarray([[contacts.peak_load(scene, s, targets, substeps, config.settle_substeps, until, damping)
+                             for damping in LOAD_DAMPINGS] for s in rows], np.float32)
+        with contextlib.suppress(OSError, DragMeshError):  # an unwritable cache only costs the next task the probe
+            atomic_write_bytes(cache, peaks.tobytes())
     return np.broadcast_to(np.asarray(peaks, np.float32), shape).copy()
+
+
+def _load_cache(scene: Scene, targets: np.ndarray, rows: list[Start], substeps: int, settle_substeps: int,
+                until: float) -> Path:
+    """Where the expert's probed loads are kept (every task of the recipe probes them; the C engine's replays are
+    deterministic): keyed by the object folder's files, the scene and its model, the targets, the starts, the stepping
+    and MuJoCo's version."""
+    h = hashlib.sha256("\0".join([object_hash(scene.obj.folder), repr(scene.config), scene.xml, mujoco.__version__,
+                                   repr((substeps, settle_substeps, float(until), LOAD_DAMPINGS))]).encode())
+    h.update(np.ascontiguousarray(targets, np.float64).tobytes())
+    for hand_q, q in rows:
+        h.update(np.ascontiguousarray(hand_q, np.float64).tobytes() + np.float64(q).tobytes())
+    return cache_dir() / "expert_load" / f"{h.hexdigest()[:16]}.f32"
+
+
+def _read_peaks(path: Path, rows: int) -> np.ndarray | None:
+    """The cached loads (rows x ``LOAD_DAMPINGS``), or None where there are none whole."""
+    with contextlib.suppress(OSError):
+        data = path.read_bytes()
+        if len(data) == rows * len(LOAD_DAMPINGS) * np.dtype(np.float32).itemsize:
+            return np.frombuffer(data, np.float32).reshape(rows, len(LOAD_DAMPINGS))
+    return None
 
 
 def load_unit(expert_load: jnp.ndarray, damping: jnp.ndarray) -> jnp.ndarray:

@@ -147,8 +147,8 @@ class ObjectMix:
     def trajectories(self) -> tuple[Trajectory, ...]:
         return tuple(t.traj for t in self.tasks)
 
-    def with_starts(self, starts: ResetNoise | None) -> ObjectMix:
-        return ObjectMix([t.with_starts(starts) for t in self.tasks])
+    def with_starts(self, starts: ResetNoise | None, costs: bool = False) -> ObjectMix:
+        return ObjectMix([t.with_starts(starts, costs) for t in self.tasks])
 
     def bind(self, data: TaskData) -> ObjectMix:
         mix = copy.copy(self)

@@ -82,8 +82,9 @@ class Env(Protocol):
         """The env for a batch of ``worlds`` worlds (an engine's shared buffers sized for them)."""
         ...
 
-    def with_starts(self, starts: ResetNoise | None) -> Env:
-        """The same objects and trajectories, reset from other starts (an evaluation protocol's)."""
+    def with_starts(self, starts: ResetNoise | None, costs: bool = False) -> Env:
+        """The same objects and trajectories, reset from other starts (an evaluation protocol's); ``costs``: whether
+        the constraints' costs are measured there (an evaluation's multipliers stay zero: it counts none)."""
         ...
 
     def check_overflow(self, count: int, where: str) -> None:

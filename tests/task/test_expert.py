@@ -105,3 +105,30 @@ def test_from_its_own_start_each_world_is_held_to_what_the_expert_pulls_there(do
         assert _replay(own, i)[0].max() == 0.0
     with pytest.raises(DragMeshError, match="expert_load_unit"):
         TaskConfig(expert_load_unit="bank")
+
+
+def test_an_evaluation_counts_no_costs_so_one_probe_from_the_grasp_stands_for_every_start(door):
+    """An evaluation's task (its multipliers stay zero) probes the expert once, from the exact grasp, whatever the
+    unit; asked to measure the costs (``experiments/load_budget.py``) it probes each start as training does."""
+    noise = ResetNoise(bank=3)
+    own = load_task(DOOR, None, backend="mujoco", reward=door.config.reward, expert_load_unit="start")
+    evaluated, measured = own.with_starts(noise), own.with_starts(noise, costs=True)
+    np.testing.assert_array_equal(evaluated.params.expert_load, np.broadcast_to(door.params.expert_load, (3, 4)))
+    bank = reset_starts(door.scene, door.traj, noise, None, door.config.rho)
+    each = [np.asarray(PullTask(door.scene, door.traj, door.config, start=s).params.expert_load[0]) for s in bank]
+    np.testing.assert_allclose(measured.params.expert_load, each, rtol=1e-6)
+
+
+def test_a_probe_is_kept_and_read_back_and_a_damaged_one_is_probed_again(door, tmp_path, monkeypatch):
+    """The probe's replays are deterministic, so every task of the recipe reads them from the cache after the first;
+    a cache file cut short is probed again and rewritten."""
+    monkeypatch.setenv("DRAGMESH2_CACHE", str(tmp_path))
+    first = np.asarray(PullTask(door.scene, door.traj, door.config).params.expert_load)
+    (kept,) = (tmp_path / "expert_load").iterdir()
+    np.testing.assert_array_equal(np.frombuffer(kept.read_bytes(), np.float32), first[0])
+    kept.write_bytes(np.arange(len(LOAD_DAMPINGS), dtype=np.float32).tobytes())  # read back, not replayed
+    np.testing.assert_array_equal(PullTask(door.scene, door.traj, door.config).params.expert_load[0],
+                                  np.arange(len(LOAD_DAMPINGS)))
+    kept.write_bytes(kept.read_bytes()[:5])
+    np.testing.assert_array_equal(PullTask(door.scene, door.traj, door.config).params.expert_load, first)
+    np.testing.assert_array_equal(np.frombuffer(kept.read_bytes(), np.float32), first[0])
