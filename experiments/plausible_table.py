@@ -2,8 +2,9 @@
 over seeds, every seed's value), from the evaluation files the runs keep, with the expert at its own pace beside them.
 
     python experiments/plausible_table.py OUT [--mode det]   (OUT: the script's output folder or results/plausible)
-    python experiments/plausible_table.py OUT --object DIR --row "LABEL=GLOB" [--row ...]   (only these rows: each
-        GLOB, under OUT, matches one evaluation file per seed on the object in DIR)"""
+    python experiments/plausible_table.py OUT --object DIR --row "LABEL=GLOB" [--row ...] [--experts planned,seated]
+        (only these rows: each GLOB, under OUT, matches one evaluation file per seed on the object in DIR; the expert
+        rows: the paper's planned grasp, and the seated grasp that holds, the recipe's expert since 2026-12-06)"""
 
 from __future__ import annotations
 
@@ -18,6 +19,9 @@ from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
+
+#: The expert grasps a table can list beside the rows: each's TaskConfig fields.
+EXPERTS = {"planned": {}, "seated": {"expert_grasp": "seated", "expert_placement": "holds"}}
 
 COLUMNS = (("success_rate", "success", "{:.2f}"), ("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"),
            ("palm_speed_peak_m_s", "palm p95 [m/s]", "{:.2f}"), ("steps_mean", "steps", "{:.0f}"),
@@ -51,12 +55,13 @@ def main(argv=None) -> int:
     ap.add_argument("--mode", default="det")
     ap.add_argument("--row", action="append", default=[], metavar="LABEL=GLOB")
     ap.add_argument("--object", help="the rows' object folder (with --row)")
+    ap.add_argument("--experts", default="planned", help="the expert rows (comma-separated: planned, seated)")
     a = ap.parse_args(argv)
     out = Path(a.out)
     if a.row:
         rows = dict(r.split("=", 1) for r in a.row)
         print(table({label: [json.loads(f.read_text()) for f in sorted(out.glob(g))] for label, g in rows.items()},
-                    a.mode, a.object))
+                    a.mode, a.object, a.experts.split(",")))
         return 0
     runs = lambda *patterns: sorted(f for pattern in patterns for f in out.glob(pattern))  # noqa: E731
     # the recipe at the paper's budget: its runs' epoch-150 checkpoints (evaluated det only: `evaluate --checkpoint
@@ -74,9 +79,9 @@ def main(argv=None) -> int:
     return 0
 
 
-def table(cells: dict[str, list[dict]], mode: str, obj: str) -> str:
-    """Per row (its seeds' evaluations) and damping x1-x16, the cells of ``mode``; the expert at its own pace on the
-    rows' object (its folder ``obj``) from the same 50 starts below them."""
+def table(cells: dict[str, list[dict]], mode: str, obj: str, experts: list[str] = ("planned",)) -> str:
+    """Per row (its seeds' evaluations) and damping x1-x16, the cells of ``mode``; each of ``experts`` (EXPERTS) at
+    its own pace on the rows' object (its folder ``obj``) from the same 50 starts below them."""
     lines = ["| method | damping | " + " | ".join(h for _, h, _ in COLUMNS) + " |",
              "|---|---|" + "---|" * len(COLUMNS)]
     for name, evals in cells.items():
@@ -86,12 +91,12 @@ def table(cells: dict[str, list[dict]], mode: str, obj: str) -> str:
             cs = [next(c for c in e["cells"] if c["damping"] == d and c["mode"] == mode) for e in evals]
             figures = " | ".join(cell([c[k] for c in cs], f) for k, _, f in COLUMNS)
             lines.append(f"| {name} | x{d:g} | {figures} |")
-    task = load_task(obj, None, backend="mujoco")
     protocol = EvalProtocol(dampings=RECIPE_DAMPINGS, modes=("det",), episodes=50)
-    expert = evaluate(protocol.task(task), tracking_controller(task), protocol)
-    for c in expert["cells"]:
-        lines.append(f"| expert (its own pace) | x{c['damping']:g} | " +
-                     " | ".join(f.format(c[k]) for k, _, f in COLUMNS) + " |")
+    for name in experts:
+        task = load_task(obj, None, backend="mujoco", **EXPERTS[name])
+        label = "expert (its own pace)" if name == "planned" else f"{name} expert (its own pace)"
+        for c in evaluate(protocol.task(task), tracking_controller(task), protocol)["cells"]:
+            lines.append(f"| {label} | x{c['damping']:g} | " + " | ".join(f.format(c[k]) for k, _, f in COLUMNS) + " |")
     return "\n".join(lines)
 
 
