@@ -258,19 +258,20 @@ METHODS = {m.name: m for m in (
            "arm's pull it can add at most 38 N, the grasp and the wrist's rotation at the whole action range; "
            "150 epochs, read at its final checkpoint",
            {**HORIZON_RESIDUAL, **reach(0.25, "translation")},
-           status="recommended", evidence="RESULTS.md, the recipe"),
+           status="superseded", evidence="RESULTS.md §3 (by hold_blind_residual_seated)"),
     Method("hold_blind_residual_holds", "hold_blind_residual_pull over the expert drag whose palm placement holds the "
            "most load (task.expert_placement holds): on the suite's hardest doors it holds x4 and x8 where the recipe "
            "lets go, pulling 1.2-1.7x the recipe's load at x1; 150 epochs, read at its final checkpoint",
            {**HORIZON_RESIDUAL, **reach(0.25, "translation"), "task.expert_placement": "holds"},
            status="experimental", evidence="results/screen/RULE.md"),
-    Method("hold_blind_residual_seated", "hold_blind_residual_pull over the seated expert grasp whose placement holds "
-           "the most load (task.expert_grasp seated, task.expert_placement holds; a planned placement where no seated "
-           "one passes the gate): the hand light where nothing resists, its pull growing with the load; 150 epochs, "
-           "read at its final checkpoint",
+    Method("hold_blind_residual_seated", "hold_blind_residual_pull over the expert grasp that holds the most load "
+           "(task.expert_grasp seated, task.expert_placement holds: the seated grasp where it holds as much as a "
+           "planned one, else the planned one that holds the most): on hard doors it holds x4-x8 where "
+           "hold_blind_residual_pull lets go, and the hand is light where nothing resists; 150 epochs, read at its "
+           "final checkpoint",
            {**HORIZON_RESIDUAL, **reach(0.25, "translation"), "task.expert_grasp": "seated",
             "task.expert_placement": "holds"},
-           status="experimental", evidence="results/screen/RULE.md"),
+           status="recommended", evidence="RESULTS.md §3, results/screen/RULE.md"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
@@ -375,7 +376,7 @@ FINETUNES = {f.name: f for f in (
 
 
 #: ``--method recommended``: the project's recipe for one object, wherever a method is taken.
-RECOMMENDED = "hold_blind_residual_pull"
+RECOMMENDED = "hold_blind_residual_seated"
 #: What ``train`` trains when no method is named.
 DEFAULT_METHOD = RECOMMENDED
 

@@ -25,7 +25,9 @@ then the first): the first gripping placement lets go of doors under load that a
 A grasp may be seated (``GeneratorParams.seat_depth``): the planned pose lies inside the handle, so each placement's
 plan is executed once, the hand taken where the handle stopped it (moved out where it is deeper than the seat depth:
 ``grasp.seat``), and the plan executed again with the wrist's target there and the fingers' ``grip_closure`` past it.
-Where no seated placement passes the gate, the planned ones (executed on the way) are ranked instead, and the header's
+Where no seated placement passes the gate, the planned ones (executed on the way) are ranked instead; ranked by the
+load they hold, the planned ones are ranked beside the seated ones, and a planned one is kept only where it holds past
+a higher damping than every seated one (a seated grasp pulls less where nothing resists: it wins ties). The header's
 ``generator.seated`` says which was kept.
 """
 
@@ -56,8 +58,9 @@ from dragmesh2_jax.trajectory.schema import Frame, Trajectory, read_trajectory, 
 #: Every 2 pi shift of three Euler angles (-1, 0, +1 turns each), in the order the nearest one is picked by.
 EULER_SHIFTS = 2 * np.pi * np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=np.float64)
 # 1.1: the grip at the drag start picks among the passing placements; 1.2: seated grasps; 1.3: a seated grasp falls
-# back to the planned placements where no seated one passes the gate
-GENERATOR_VERSION = "1.3"
+# back to the planned placements where no seated one passes the gate; 1.4: ranked by the load they hold, a planned
+# placement is kept where it holds more than every seated one
+GENERATOR_VERSION = "1.4"
 #: The damping multipliers a placement's drag is executed at to rank the placements by the load they hold (the
 #: recipe's training range, an octave apart, and one beyond it), in order: ranking stops at the first not opened.
 HOLD_DAMPINGS = (2.0, 4.0, 8.0, 16.0)
@@ -404,9 +407,9 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
     unseated = replace(params, seat_depth=None)
 
     def consider(k: int, placement: grasp.GraspParams, frames: list[Frame], stats: dict,
-                 kind: GeneratorParams) -> bool:
-        """Rank one executed placement (``kind``: the params it was executed under, seated or not); whether the
-        search stops at it."""
+                 kind: GeneratorParams, floor: float = 0.0) -> bool:
+        """Rank one executed placement (``kind``: the params it was executed under, seated or not; kept only where it
+        holds past ``floor``); whether the search stops at it."""
         nonlocal best
         q = quality(scene, frames, stats, kind, extent)
         held = holds(scene, frames, kind) if q["passed"] and params.placement_choice == "holds" else 1.0
@@ -415,7 +418,7 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
                               "max_penetration_m", "max_palm_distance_m")}, "holds": held})
         # passing, holding the most (ranked by it), gripping (the first of each), then the farthest opening
         rank = (q["passed"], held, q["grip"], 0.0 if q["passed"] else q["achieved_opening"])
-        if best is None or rank > best[0]:
+        if best is None or (rank > best[0] and held > floor):
             best = (rank, frames, q, k, placement, kind)
         return q["passed"] and q["grip"] and params.placement_choice == "first"
 
@@ -429,9 +432,10 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
             frames, stats = execute(scene, make_plan(scene, params, placement, seated), params)
         if consider(k, placement, frames, stats, params):
             break
-    if not best[2]["passed"]:  # no seated placement passes: the planned ones, executed on the way, are the grasp
+    if not best[2]["passed"] or params.placement_choice == "holds":  # the planned ones, executed on the way
+        floor = best[0][1] if best[2]["passed"] else 0.0  # a planned grasp must hold more than every seated one
         for k, placement, frames, stats in planned:
-            if consider(k, placement, frames, stats, unseated):
+            if consider(k, placement, frames, stats, unseated, floor):
                 break
     _, frames, q, k, placement, kept = best
     if q["passed"] and not q["grip"]:

@@ -168,11 +168,12 @@ def test_recommended_is_the_projects_recipe_and_trains_on_the_c_engine():
     """``--method recommended`` resolves to the recipe, recorded by its own name; one tiny epoch on the C engine
     (tests/physics/test_mjx_backend.py trains it on MJX). The recipe observes what the paper's policy does (no
     force or touch sensing) and acts as a smooth residual over the expert drag, its pull narrowed to a quarter of the
-    action range and its wrist load relative to the object's expert's a CMDP constraint charged to the horizon; only
-    its critic sees damping, friction and contact load. It trains the paper's 150 epochs and is read at its final
-    checkpoint over x1-x8 and x16."""
+    action range and its wrist load relative to the object's expert's a CMDP constraint charged to the horizon, over
+    the expert grasp that holds the most load; only its critic sees damping, friction and contact load. It trains
+    the paper's 150 epochs and is read at its final checkpoint over x1-x8 and x16."""
     spec = tiny_spec("recommended")
-    assert spec.method == RECOMMENDED and get_method("recommended").name == "hold_blind_residual_pull"
+    assert spec.method == RECOMMENDED and get_method("recommended").name == "hold_blind_residual_seated"
+    assert spec.task.expert_grasp == "seated" and spec.task.expert_placement == "holds"
     assert spec.task.damping_range == (1.0, 8.0) and not spec.task.force_obs and spec.task.reset_noise is not None
     assert spec.task.expert_prior and [c.measure for c in spec.task.reward.constraints] == ["relative_load"]
     assert spec.task.residual_scale == 0.25 and spec.task.residual_scope == "translation"

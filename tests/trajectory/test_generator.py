@@ -9,7 +9,7 @@ from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.scene import RESET_SETTLE_SUBSTEPS, build_scene, contact_depth
 from dragmesh2_jax.trajectory import generator
-from dragmesh2_jax.trajectory.generator import GeneratorParams, continuous_euler, generate
+from dragmesh2_jax.trajectory.generator import SEAT_DEPTH, GeneratorParams, continuous_euler, generate
 from dragmesh2_jax.trajectory.schema import PHASES
 from tests.conftest import REAL_OBJECTS
 
@@ -149,3 +149,19 @@ def test_the_placement_that_holds_under_load_is_kept_over_the_first_that_grips(t
         replayed[name] = contacts.replay(scene, (t.start_hand_q, t.q_start), t.held_targets(1 / 60, 300), 4,
                                          RESET_SETTLE_SUBSTEPS, t.q_done, 4.0).steps
     assert replayed["first"] is None and replayed["held"] is not None, replayed
+
+
+@pytest.mark.parametrize("name, seated", [("door_cabinet_0000", False), ("drawer_cabinet_0000", True)])
+def test_a_seated_grasp_is_kept_where_it_holds_as_much_as_a_planned_one_and_a_planned_one_where_it_holds_more(
+        name, seated):
+    """Seated and ranked by the load it holds (the recipe's expert): on the packaged door the seated placement that
+    passes the gate holds only 2x the damping and a planned one 16x, so the planned one is kept; on the packaged
+    drawer a seated one holds 16x, as much as any planned one, and it is kept (it pulls less where nothing resists)."""
+    t = generate(load_gapartnet(str(procedural.packaged_object(name))),
+                 GeneratorParams(seat_depth=SEAT_DEPTH, placement_choice="holds"))
+    g = t.header["generator"]
+    best = {kind: max(a["holds"] for a in g["attempts"] if a["passed"] and a["seated"] == kind)
+            for kind in (True, False)}
+    kept = next(a for a in g["attempts"] if a["placement"] == g["placement"] and a["seated"] == g["seated"])
+    assert g["seated"] is seated and t.header["quality"]["passed"] and kept["holds"] == max(best.values())
+    assert (best[False] > best[True]) is not seated
