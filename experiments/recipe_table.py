@@ -8,7 +8,9 @@ penetration and the policy's own saturation at x1; the previous recipe on the sa
 from __future__ import annotations
 
 import argparse
+import glob
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -39,10 +41,12 @@ def main(argv=None) -> int:
           "[mm] | own saturation x1 |")
     print("|---" * 10 + "|")
     for row in json.loads(Path(a.rows).read_text()):
-        for label, glob in ((f"{row['object']} ({row['grasp']})", row["runs"]), ("  previous recipe", row["before"])):
-            files = sorted(Path(".").glob(glob))
+        for label, pattern in ((f"{row['object']} ({row['grasp']})", row["runs"]),
+                               ("  previous recipe", row["before"])):
+            files = [Path(f) for f in sorted(glob.glob(pattern))]
             if not files:
-                raise SystemExit(f"error: no evaluation files match {glob}")
+                print(f"error: no evaluation files match {pattern}", file=sys.stderr)
+                return 2
             f = figures(files)
             print(f"| {label} | " + " | ".join(f[k] for k in ("x1", "x2", "x4", "x8", "x16", "load", "palm",
                                                               "penetration", "own")) + " |")
