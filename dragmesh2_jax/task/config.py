@@ -102,7 +102,8 @@ ExpertUnit = Literal["grasp", "start"]
 ExpertGrasp = Literal["seated", "planned"]
 #: Which of the generator's palm placements the expert grasps with (``expert_placement``): "first", the first that
 #: passes its gate and grips the handle; "holds", of those that pass, the one whose drag still opens the part at the
-#: highest damping (``trajectory.generator.HOLD_DAMPINGS``; RESULTS.md, the suite).
+#: highest damping (``trajectory.generator.HOLD_DAMPINGS``; RESULTS.md, the suite); with the seated grasp, a planned
+#: placement where it holds more than every seated one (generator 1.4: the recipe's expert, RESULTS.md §3).
 ExpertPlacement = Literal["first", "holds"]
 EXPERT_UNITS = get_args(ExpertUnit)
 #: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
