@@ -260,8 +260,9 @@ METHODS = {m.name: m for m in (
            {**HORIZON_RESIDUAL, **reach(0.25, "translation")},
            status="superseded", evidence="RESULTS.md §3 (by hold_blind_residual_seated)"),
     Method("hold_blind_residual_holds", "hold_blind_residual_pull over the expert drag whose palm placement holds the "
-           "most load (task.expert_placement holds): on the suite's hardest doors it holds x4 and x8 where the recipe "
-           "lets go, pulling 1.2-1.7x the recipe's load at x1; 150 epochs, read at its final checkpoint",
+           "most load (task.expert_placement holds): on the suite's hardest doors it holds x4 and x8 where "
+           "hold_blind_residual_pull lets go, pulling 1.2-1.7x its load at x1; 150 epochs, read at its final "
+           "checkpoint",
            {**HORIZON_RESIDUAL, **reach(0.25, "translation"), "task.expert_placement": "holds"},
            status="experimental", evidence="results/screen/RULE.md"),
     Method("hold_blind_residual_seated", "hold_blind_residual_pull over the expert grasp that holds the most load "
