@@ -6,13 +6,17 @@ instead of running ahead of it, the cause of the palm's speed-up under load (the
 when the door gives). Per object, lead and damping: det success, the wrist load p95 and the palm speed p95.
 
     python experiments/yielding_drag.py --objects DIR [DIR ...] [--leads inf,0.2,0.1,0.05] [--episodes 50]
-        [--out results/pace/yielding.jsonl]
+        [--interface targets|actions] [--out results/pace/yielding.jsonl]
 
-The expert is the recipe's (``--task.expert-grasp seated --task.expert-placement holds``)."""
+The expert is the recipe's (``--task.expert-grasp seated --task.expert-placement holds``). ``--interface actions``
+sends the drag through the action bound as the recipe's prior does (a = clip((target - q) / alpha, -1, 1): the
+hand's PD target at most alpha from the hand), ``targets`` (the default) sets the PD target itself, as the tracking
+baseline and ``envelope`` do."""
 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 from pathlib import Path
@@ -40,15 +44,22 @@ def yielding(params, obs, key):
     return targets[jnp.minimum(jnp.minimum(obs.step, cap), targets.shape[0] - 1)]
 
 
-def controller(task, lead: float) -> Controller:
+def yielding_actions(alpha: float, params, obs, key):
+    """:func:`yielding`'s target through the action bound, as the residual's prior is."""
+    target = yielding(params, obs, key)
+    return jnp.clip((target - obs.state[..., : target.shape[-1]]) / alpha, -1.0, 1.0)
+
+
+def controller(task, lead: float, interface: str = "targets") -> Controller:
     targets = drag_targets(task)
     steps = len(targets)
     schedule = task.traj.drag_schedule(task.config.control_dt, steps)
     planned = (schedule - task.traj.q_start) / max(task.traj.q_goal - task.traj.q_start, 1e-6)
     planned = np.maximum.accumulate(planned).astype(np.float32)  # searchsorted needs it sorted
-    return Controller(f"yielding_{lead:g}", lambda deterministic: yielding,
-                      (jnp.asarray(targets), jnp.asarray(planned), jnp.float32(min(lead, 1e6))), controls="targets",
-                      key="yielding")
+    policy = yielding if interface == "targets" else functools.partial(yielding_actions, task.config.alpha)
+    return Controller(f"yielding_{lead:g}", lambda deterministic: policy,
+                      (jnp.asarray(targets), jnp.asarray(planned), jnp.float32(min(lead, 1e6))), controls=interface,
+                      key=("yielding", interface))
 
 
 def main(argv=None) -> int:
@@ -56,6 +67,7 @@ def main(argv=None) -> int:
     ap.add_argument("--objects", nargs="+", required=True)
     ap.add_argument("--leads", default="inf,0.2,0.1,0.05")
     ap.add_argument("--episodes", type=int, default=50)
+    ap.add_argument("--interface", choices=("targets", "actions"), default="targets")
     ap.add_argument("--out", default="results/pace/yielding.jsonl")
     a = ap.parse_args(argv)
     protocol = EvalProtocol(dampings=RECIPE_DAMPINGS, modes=("det",), episodes=a.episodes)
@@ -64,10 +76,11 @@ def main(argv=None) -> int:
         task = load_task(folder, None, backend="mujoco", expert_grasp="seated", expert_placement="holds")
         seated = task.traj.header["generator"]["seated"]
         for lead in (float(x) for x in a.leads.split(",")):
-            for c in evaluate(protocol.task(task), controller(task, lead), protocol)["cells"]:
-                rows.append({"object": Path(folder).name, "seated": seated, "lead": lead if math.isfinite(lead)
-                             else "inf", **{k: c[k] for k in ("damping", "success_rate", "wrist_load_peak_n",
-                                                             "palm_speed_peak_m_s", "steps_mean")}})
+            for c in evaluate(protocol.task(task), controller(task, lead, a.interface), protocol)["cells"]:
+                rows.append({"object": Path(folder).name, "seated": seated, "interface": a.interface,
+                             "lead": lead if math.isfinite(lead) else "inf",
+                             **{k: c[k] for k in ("damping", "success_rate", "wrist_load_peak_n", "palm_speed_peak_m_s",
+                                                  "steps_mean")}})
                 r = rows[-1]
                 print(f"{r['object']} lead {r['lead']} x{r['damping']:g}: {r['success_rate']:.2f}, "
                       f"{r['wrist_load_peak_n']:.0f} N, palm {r['palm_speed_peak_m_s']:.2f} m/s, "

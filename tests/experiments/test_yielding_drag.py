@@ -34,3 +34,8 @@ def test_the_progress_it_reads_is_the_tasks_and_the_target_waits_for_a_part_that
     cap = int(np.searchsorted(np.asarray(planned), float(progress) + 0.05, side="right"))
     assert cap < len(targets) // 2
     np.testing.assert_array_equal(held, targets[cap])  # the target waits where the plan has the part a lead ahead
+    bounded = yielding_drag.controller(task, 0.05, "actions")  # through the action bound, as the recipe's prior
+    q = late.state[: targets.shape[1]]
+    assert bounded.controls == "actions"
+    np.testing.assert_allclose(bounded.make_policy(True)(bounded.params, late, None),
+                               np.clip((targets[cap] - q) / task.config.alpha, -1.0, 1.0), rtol=1e-6)
