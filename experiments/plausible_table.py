@@ -19,9 +19,11 @@ from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
+from dragmesh2_jax.runs.spec import method_defaults
 
-#: The expert grasps a table can list beside the rows: each's TaskConfig fields.
-EXPERTS = {"planned": {}, "seated": {"expert_grasp": "seated", "expert_placement": "holds"}}
+#: The expert grasps a table can list beside the rows: each's TaskConfig fields (the paper's; the recipe's).
+EXPERTS = {"planned": {}, "seated": {k: getattr(method_defaults("recommended").task, k)
+                                     for k in ("expert_grasp", "expert_placement")}}
 
 COLUMNS = (("success_rate", "success", "{:.2f}"), ("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"),
            ("palm_speed_peak_m_s", "palm p95 [m/s]", "{:.2f}"), ("steps_mean", "steps", "{:.0f}"),

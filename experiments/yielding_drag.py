@@ -8,10 +8,10 @@ when the door gives). Per object, lead and damping: det success, the wrist load 
     python experiments/yielding_drag.py --objects DIR [DIR ...] [--leads inf,0.2,0.1,0.05] [--episodes 50]
         [--interface targets|actions] [--out results/pace/yielding.jsonl]
 
-The expert is the recipe's (``--task.expert-grasp seated --task.expert-placement holds``). ``--interface actions``
-sends the drag through the action bound as the recipe's prior does (a = clip((target - q) / alpha, -1, 1): the
-hand's PD target at most alpha from the hand), ``targets`` (the default) sets the PD target itself, as the tracking
-baseline and ``envelope`` do."""
+The expert is the recipe's (its grasp and placement: ``--task.expert-grasp seated --task.expert-placement holds``).
+``--interface actions`` sends the drag through the action bound as the recipe's prior does (a = clip((target - q) /
+alpha, -1, 1): the hand's PD target at most alpha from the hand), ``targets`` (the default) sets the PD target itself,
+as the tracking baseline and ``envelope`` do."""
 
 from __future__ import annotations
 
@@ -24,17 +24,19 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from dragmesh2_jax.baselines.tracking import drag_targets
+from dragmesh2_jax.baselines.tracking import drag_targets, toward
 from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import atomic_write_text
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
+from dragmesh2_jax.runs.spec import method_defaults
+from dragmesh2_jax.task.observation import STATE_SIZE
 
-#: Where the part's progress p_t sits in the paper's s_t (task/observation.paper_state): hand q, qd (51 each),
-#: handle pos (3) and axes (6), palm to handle (3) and its length (1), the part's q and qd, then phi = [p_t, ...].
-PROGRESS = 51 + 51 + 3 + 6 + 3 + 1 + 2
+#: Where the part's progress p_t sits in the paper's s_t (task/observation.paper_state): it ends with phi =
+#: [p_t, (q_done - q) / Delta, Delta].
+PROGRESS = STATE_SIZE - 3
 
 
 def yielding(params, obs, key):
@@ -46,8 +48,7 @@ def yielding(params, obs, key):
 
 def yielding_actions(alpha: float, params, obs, key):
     """:func:`yielding`'s target through the action bound, as the residual's prior is."""
-    target = yielding(params, obs, key)
-    return jnp.clip((target - obs.state[..., : target.shape[-1]]) / alpha, -1.0, 1.0)
+    return toward(alpha, yielding(params, obs, key), obs)
 
 
 def controller(task, lead: float, interface: str = "targets") -> Controller:
@@ -71,9 +72,11 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="results/pace/yielding.jsonl")
     a = ap.parse_args(argv)
     protocol = EvalProtocol(dampings=RECIPE_DAMPINGS, modes=("det",), episodes=a.episodes)
+    recipe = method_defaults("recommended").task  # its expert's grasp and placement
     rows = []
     for folder in a.objects:
-        task = load_task(folder, None, backend="mujoco", expert_grasp="seated", expert_placement="holds")
+        task = load_task(folder, None, backend="mujoco", expert_grasp=recipe.expert_grasp,
+                         expert_placement=recipe.expert_placement)
         seated = task.traj.header["generator"]["seated"]
         for lead in (float(x) for x in a.leads.split(",")):
             for c in evaluate(protocol.task(task), controller(task, lead, a.interface), protocol)["cells"]:

@@ -38,10 +38,15 @@ def tracking_controller(task: PullTask, pace: float = 1.0) -> Controller:
                       key=TRACKING)
 
 
+def toward(alpha: float, target: jnp.ndarray, obs: Obs) -> jnp.ndarray:
+    """The action whose PD target q + alpha a comes nearest ``target``."""
+    q = obs.state[..., : target.shape[-1]]  # s_t starts with the hand's joint positions
+    return jnp.clip((target - q) / alpha, -1.0, 1.0)
+
+
 def increments(alpha: float, targets: jnp.ndarray, obs: Obs, key) -> jnp.ndarray:
     """The action whose PD target q + alpha a comes nearest this step's reference pose."""
-    q = obs.state[..., : targets.shape[-1]]  # s_t starts with the hand's joint positions
-    return jnp.clip((replay(targets, obs, key) - q) / alpha, -1.0, 1.0)
+    return toward(alpha, replay(targets, obs, key), obs)
 
 
 def tracking_delta_controller(task: PullTask) -> Controller:
