@@ -2,9 +2,10 @@
 # One-seed lever screens on the suite (rules: results/screen/RULE.md): today's recipe against the recipe with one
 # lever (hand_seated: the hand's contacts and the seated grasp; pace: the palm's speed bounded as a second CMDP
 # constraint beside the recipe's load bound, its rate of steps past it; pace_peak: each episode's peak; holds: the
-# expert's placement chosen by the load it holds; seated_holds: that with the seated grasp), on three suite doors
-# today's expert lets go at x4 and x8; resumable (a finished run or evaluation is kept).
-# Usage: [SEEDS="0 1 2"] [WITH_TODAY=0] bash experiments/hold_screen.sh [RUNS] [LEVER ...]
+# expert's placement chosen by the load it holds; seated_holds: that with the seated grasp; grip: the hand's contacts
+# and finger drives of 2 N m, so the policy can close the grip past the expert's), on three suite doors today's expert
+# lets go at x4 and x8 (or OBJECTS, suite objects as category:seed); resumable (a finished run or evaluation is kept).
+# Usage: [SEEDS="0 1 2"] [WITH_TODAY=0] [OBJECTS="door_cabinet:111 ..."] bash experiments/hold_screen.sh [RUNS] [LEVER ...]
 # (seed 0's run is RUNS/LEVER_OBJECT, seed S's RUNS/LEVER_OBJECT_sS)
 set -euo pipefail
 RUNS=${1:-runs/screen}
@@ -12,11 +13,16 @@ shift || true
 LEVERS=("${@:-hand_seated}")
 SEEDS=${SEEDS:-0}
 WITH_TODAY=${WITH_TODAY:-1}  # 0: the levers' runs alone
+OBJECTS=${OBJECTS:-door_cabinet:107 door_cabinet:109 microwave:104}
 mkdir -p runs/suite
-for spec in door_cabinet:107 door_cabinet:109 microwave:104; do
-  dragmesh2 objects synth --category "${spec%%:*}" --count 1 --seed "${spec##*:}" --out runs/suite > /dev/null
+objs=()
+for spec in $OBJECTS; do
+  obj=$(printf "%s_%04d" "${spec%%:*}" "${spec##*:}")
+  [ -d "runs/suite/$obj" ] || \
+    dragmesh2 objects synth --category "${spec%%:*}" --count 1 --seed "${spec##*:}" --out runs/suite > /dev/null
+  objs+=("$obj")
 done
-for obj in door_cabinet_0107 door_cabinet_0109 microwave_0104; do
+for obj in "${objs[@]}"; do
   settings=("${LEVERS[@]}")
   [ "$WITH_TODAY" = 0 ] || settings=(today "${LEVERS[@]}")
   for lever in "${settings[@]}"; do
@@ -29,6 +35,7 @@ for obj in door_cabinet_0107 door_cabinet_0109 microwave_0104; do
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:rate:0.05:1:20)
     [ "$lever" = holds ] && extra=(--task.expert-placement holds)
     [ "$lever" = seated_holds ] && extra=(--task.expert-grasp seated --task.expert-placement holds)
+    [ "$lever" = grip ] && extra=(--scene.object-contact hand --scene.hand.finger.force-limit 2)
     [ "$lever" = pace_peak ] && extra=(--task.reward.constraints \
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:peak:0.05:1:20)
     [ -d "$run/seed_$seed/checkpoints/final" ] || \
