@@ -312,6 +312,10 @@ class TaskConfig:
     a residual can add; its exploration noise scaled alike); 1: the policy's whole action range"""
     residual_scope: ResidualScope = "hand"
     """beyond the paper, the channels residual_scale narrows (RESIDUAL_SCOPES' comment)"""
+    prior_lead: float | None = None
+    """beyond the paper, under expert_prior: a pace that yields, the drag's step held back to the first whose planned
+    joint lies this fraction of the part's range past the part's joint now, so the hand's target waits for a part that
+    lags instead of running ahead of it (results/pace/RULE.md); None: the drag at its own pace (time-indexed)"""
     expert_load_unit: ExpertUnit = "grasp"
     """beyond the paper, the unit of the relative_load measure (EXPERT_UNITS' comment)"""
     expert_grasp: ExpertGrasp = "planned"
@@ -365,6 +369,8 @@ class TaskConfig:
         if not 0 < self.residual_scale <= 1 or (self.residual_scale != 1 and not self.expert_prior):
             raise DragMeshError(f"residual_scale must be in (0, 1] and below 1 only with expert_prior, got "
                                 f"{self.residual_scale}")
+        if self.prior_lead is not None and not (0 < self.prior_lead < math.inf and self.expert_prior):
+            raise DragMeshError(f"prior_lead must be finite and > 0, and only with expert_prior, got {self.prior_lead}")
         if self.residual_scope not in RESIDUAL_SCOPES:
             raise DragMeshError(f"unknown residual_scope {self.residual_scope!r} (choose from "
                                 f"{', '.join(RESIDUAL_SCOPES)})")

@@ -26,9 +26,8 @@ model fields, the adaptive ARAM weight) is ``task.data`` (:class:`TaskData`); :m
 task over other data, as Playground's randomisation wrapper swaps the model inside a traced function, so a program
 written against ``task.bind(data)`` compiles once for every object of the same structure (``ppo/train.py``).
 
-Success: q >= q_done = q_min + rho (q_max - q_min) over the trajectory (``TaskConfig.rho``; design §4).
-Reset: each episode starts at the expert grasp (drag-start frame, settled), or, with ``TaskConfig.reset_noise``, at
-one of a bank of seeded perturbations of it (evaluation's default: a deterministic cell is a distribution).
+Success: q >= q_done = q_min + rho (q_max - q_min) over the trajectory (``TaskConfig.rho``; design §4). Reset: at
+the expert grasp (drag-start frame, settled), or with ``TaskConfig.reset_noise`` a seeded perturbation of it.
 """
 
 from __future__ import annotations
@@ -52,7 +51,7 @@ from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import PEAK_COSTS, ResetNoise, TaskConfig
-from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit, residual_gain
+from dragmesh2_jax.task.expert import RELATIVE_LOAD, drag_step, expert_drag, expert_load, load_unit, residual_gain
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import (
@@ -383,7 +382,8 @@ class PullTask:
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state)
         if self.config.expert_prior:  # the residual over the expert drag's action of this step
-            prior = (self.params.drag[state.info["step"]] - k0.hand_q) / self.config.alpha  # one row per step
+            row = drag_step(self.config, state.info["step"], k0.obj_q, self.params)
+            prior = (self.params.drag[row] - k0.hand_q) / self.config.alpha
             a = jnp.clip(residual_gain(self.config) * a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)

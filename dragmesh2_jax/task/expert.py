@@ -8,6 +8,7 @@ import contextlib
 import hashlib
 from pathlib import Path
 
+import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
@@ -55,6 +56,17 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
     if scene.config.effector != "hand":
         raise DragMeshError("expert_prior needs the hand (the expert drag moves the hand, not a gripper)")
     return held_targets(traj, config)
+
+
+def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params) -> jnp.ndarray:
+    """The step of the expert drag whose target the prior applies at episode step ``step``: that step, or under
+    ``config.prior_lead`` at most the first whose planned joint (``params.schedule``, the task's) lies prior_lead x the
+    part's range past the part's joint ``q`` now."""
+    if config.prior_lead is None:
+        return step
+    planned = jax.lax.cummax(params.schedule)  # sorted, as searchsorted needs (a plan that holds a step stays put)
+    lead = config.prior_lead * (params.q_goal - params.q_start)
+    return jnp.minimum(step, jnp.searchsorted(planned, q + lead, side="right"))
 
 
 def residual_gain(config: TaskConfig) -> np.ndarray:

@@ -1,5 +1,7 @@
 """The expert drag as the task reads it (task/expert.py): the residual's prior and the relative load's unit."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -11,8 +13,8 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import envelope
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig, TaskConfig
-from dragmesh2_jax.task.env import PullTask, make_batched
-from dragmesh2_jax.task.expert import LOAD_DAMPINGS, load_unit
+from dragmesh2_jax.task.env import PullTask, applied_action, make_batched
+from dragmesh2_jax.task.expert import LOAD_DAMPINGS, drag_step, load_unit
 from dragmesh2_jax.task.starts import reset_starts
 
 DOOR = str(packaged_object("door_cabinet_0000"))
@@ -132,3 +134,38 @@ def test_a_probe_is_kept_and_read_back_and_a_damaged_one_is_probed_again(door, t
     kept.write_bytes(kept.read_bytes()[:5])
     np.testing.assert_array_equal(PullTask(door.scene, door.traj, door.config).params.expert_load, first)
     np.testing.assert_array_equal(np.frombuffer(kept.read_bytes(), np.float32), first[0])
+
+
+def test_the_drag_step_under_a_lead_is_the_first_planned_past_the_part_and_never_ahead_of_time():
+    """prior_lead: the drag's step at most the first whose planned joint lies lead x the range past the part's joint
+    (the plan made monotone), never later than the episode step; without a lead, the episode step."""
+    params = PullTask.__new__(PullTask)  # only its three fields are read
+    params.schedule, params.q_start, params.q_goal = jnp.asarray([0.0, 0.1, 0.3, 0.2, 0.5, 0.7, 0.9, 1.0]), 0.0, 2.0
+    lead = TaskConfig(expert_prior=True, prior_lead=0.1)  # 0.2 in joint units
+    assert int(drag_step(lead, jnp.int32(7), jnp.float32(0.0), params)) == 2  # planned 0.3 is the first past 0.2
+    assert int(drag_step(lead, jnp.int32(7), jnp.float32(0.15), params)) == 4  # 0.3 and the plan's dip held at 0.3
+    assert int(drag_step(lead, jnp.int32(1), jnp.float32(0.9), params)) == 1  # a part ahead: the episode's step
+    assert int(drag_step(TaskConfig(expert_prior=True), jnp.int32(7), jnp.float32(0.0), params)) == 7
+    for bad in ({"prior_lead": 0.1}, {"prior_lead": 0.0, "expert_prior": True}):
+        with pytest.raises(DragMeshError, match="prior_lead"):
+            TaskConfig(**bad)
+
+
+def test_a_yielding_prior_waits_for_a_part_that_lags_and_follows_one_that_keeps_up(door):
+    """The residual's prior with prior_lead: where the part keeps up (x1, a lead it never reaches) zeros replay the
+    expert's drag exactly; where it lags (x200 damping) the hand's target waits for it: the prior's pull (its applied
+    action on the wrist's translation) stays well short of the time-indexed drag's, which runs on ahead."""
+    timed = PullTask(door.scene, door.traj, dataclasses.replace(door.config, expert_prior=True))
+    far = PullTask(door.scene, door.traj, dataclasses.replace(timed.config, prior_lead=10.0))
+    near = PullTask(door.scene, door.traj, dataclasses.replace(timed.config, prior_lead=0.05))
+
+    def run(task, damping):
+        s = task.reset(jax.random.PRNGKey(0), jnp.float32(damping))
+        s, pull = jax.lax.scan(lambda s, _: (s := task.step(s, jnp.zeros(51)),
+                                             jnp.linalg.norm(applied_action(s.obs, 51)[:3])), s, None, length=120)
+        return s.metrics["q"], pull[90:].mean()
+
+    (q_timed, _), (q_far, _), (_, pull_timed), (_, pull_near) = jax.device_get(jax.jit(lambda: (
+        run(timed, 1.0), run(far, 1.0), run(timed, 200.0), run(near, 200.0)))())
+    assert q_far == pytest.approx(q_timed, abs=1e-6)
+    assert pull_near < 0.5 * pull_timed
