@@ -146,6 +146,9 @@ SEATED_HOLDS: dict[str, Any] = {**HORIZON_RESIDUAL, **reach(0.25, "translation")
 #: The hand's contacts (about 1 mm into a handle where MuJoCo's default object contacts let it sink 4-9 mm) and
 #: finger drives of 2 N m: the seated grasp's targets ask 1.2 N m, so the policy has room to tighten it.
 FIRM_GRIP: dict[str, Any] = {"scene.object_contact": "hand", "scene.hand.finger.force_limit": 2.0}
+#: A pace that yields: the prior's target at most a fifth of the part's range ahead of the part (on the expert drag:
+#: x1-x8 unchanged, its palm's pace kept at x16 and three doors opened there; results/pace/).
+YIELDING: dict[str, Any] = {"task.prior_lead": 0.2}
 
 
 @dataclass(frozen=True)
@@ -282,6 +285,15 @@ METHODS = {m.name: m for m in (
            "not in it) with finger drives of 2 N m, twice the expert grasp's pressure, so the residual can close the "
            "grip as the load rises; 150 epochs, read at its final checkpoint",
            {**SEATED_HOLDS, **FIRM_GRIP}, status="experimental", evidence="results/screen/RULE.md (seventh lever)"),
+    Method("hold_blind_residual_yield", "hold_blind_residual_seated whose prior waits for a part that lags (its drag "
+           "target at most 0.2 of the range ahead of the part), so the hand does not speed up under load; 150 epochs, "
+           "read at its final checkpoint",
+           {**SEATED_HOLDS, **YIELDING}, status="experimental", evidence="results/screen/RULE.md (eighth lever)"),
+    Method("hold_blind_residual_firm", "hold_blind_residual_yield on hold_blind_residual_grip's physics: the fingers "
+           "on the handle, a grip the residual can tighten and a pace that yields; 150 epochs, read at its final "
+           "checkpoint",
+           {**SEATED_HOLDS, **FIRM_GRIP, **YIELDING}, status="experimental",
+           evidence="results/screen/RULE.md (eighth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
