@@ -43,6 +43,10 @@ GENERALIST_EPOCHS = 4883
 #: four times, where the paper's 8 episodes per cell would leave some unseen.
 GENERALIST_ROBUST_EPISODES = 40
 
+#: The generalist's schedule: its budget, checked on the held-aside objects every 100 epochs.
+GENERALIST_SCHEDULE: dict[str, Any] = {"schedule.epochs": GENERALIST_EPOCHS, "schedule.save_every": 100,
+                                       "schedule.robust_every": 100,
+                                       "schedule.robust_episodes": GENERALIST_ROBUST_EPISODES}
 #: The paper's baselines and ablation "w/o PICA": no r_bound / r_contact, nominal damping, no auxiliary loss.
 NO_PHYSICAL_SIGNALS: dict[str, Any] = {"task.reward.w_bound": 0.0, "task.reward.w_contact": 0.0,
                                        "task.damping_range": (1.0, 1.0), "ppo.aux_weight": 0.0}
@@ -211,10 +215,14 @@ METHODS = {m.name: m for m in (
            "the default batch), checked on the held-aside objects every 100 epochs (40 episodes per damping: 4 per "
            "held-aside object on average), read at its final checkpoint (train --generalist: over the procedural "
            "mix of every category)",
-           {**HOLD_BLIND, "task.observation": "handle", "schedule.epochs": GENERALIST_EPOCHS,
-            "schedule.save_every": 100, "schedule.robust_every": 100,
-            "schedule.robust_episodes": GENERALIST_ROBUST_EPISODES},
+           {**HOLD_BLIND, "task.observation": "handle", **GENERALIST_SCHEDULE},
            status="generalist", evidence="results/archive.md §6e"),
+    Method("generalist_residual", "the generalist over the recipe's structure (hold_blind_residual_seated's expert "
+           "drag plus a residual, its pull narrowed and bounded by each object's expert, the grasp that holds) with "
+           "the handle-frame observation: the expert drag exists for every object a user opens; the generalist's "
+           "budget",
+           {**SEATED_HOLDS, "task.observation": "handle", **GENERALIST_SCHEDULE},
+           status="experimental", evidence="results/generalist_residual/ (a one-seed screen)"),
     Method("hold_blind_residual", "the recipe (hold_blind) as a residual over the expert drag: the policy's action "
            "adds to the one that follows the drag at its own pace (its zero replays the expert), so it learns the "
            "corrections, not the pull", {**HOLD_BLIND, **RESIDUAL},

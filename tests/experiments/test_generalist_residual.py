@@ -1,0 +1,27 @@
+"""The residual generalist's screen (experiments/generalist_residual.py): two arms at one budget over the
+generalist's objects, each zero-shot on the shared objects; its table puts every arm and object on a row with success
+at each damping and the physical figures beside it."""
+
+import importlib.util
+from pathlib import Path
+
+SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "generalist_residual.py"
+_spec = importlib.util.spec_from_file_location("generalist_residual", SCRIPT)
+generalist_residual = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(generalist_residual)
+
+
+def _cells(successes, load, own):
+    return [{"damping": d, "success_rate": s, "wrist_load_peak_n": load * d, "palm_speed_peak_m_s": 0.1 * d,
+             "penetration_max_mm": 2.0 * d, "clip099_active": 0.9, **({"clip099_policy_active": own} if own else {})}
+            for d, s in successes.items()]
+
+
+def test_each_arm_and_object_is_a_row_with_its_success_and_how_it_was_opened():
+    rows = {"generalist": {"45780": _cells({1.0: 1.0, 4.0: 0.5, 8.0: 0.0}, 150.0, None)},
+            "residual": {"45780": _cells({1.0: 1.0, 4.0: 1.0, 8.0: 0.96}, 20.0, 0.1)}}
+    header, rule, scratch, residual = generalist_residual.table(rows, [1.0, 4.0, 8.0]).splitlines()
+    assert header.startswith("| arm | object | x1 | x4 | x8 |") and rule.count("---") == 9
+    assert scratch == ("| generalist | 45780 | 1.00 | 0.50 | 0.00 | 150 / 1200 | 0.10 -> 0.80 | 16.0 | 0.90 / 0.90 |")
+    assert residual == "| residual | 45780 | 1.00 | 1.00 | 0.96 | 20 / 160 | 0.10 -> 0.80 | 16.0 | 0.90 / 0.10 |"
+    assert generalist_residual.ARMS == {"generalist": "generalist", "residual": "generalist_residual"}
