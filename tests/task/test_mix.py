@@ -41,6 +41,21 @@ def test_a_batch_mixes_a_drawer_and_a_door_on_the_c_engine():
     assert np.all(q[objects == 1] >= tasks[1].traj.q_min - 1e-3) and np.all(q[objects == 0] >= -1e-3)
 
 
+def test_under_the_expert_prior_each_world_replays_its_own_objects_drag():
+    """A residual over a mix (the residual generalist): a zero action follows the drag of the object the world drew,
+    so every world opens its own drawer or door to success."""
+    tasks = [load_task(o, None, backend="mujoco", expert_prior=True) for o in (DRAWER, DOOR)]
+    reset, step = make_batched(AutoReset(ObjectMix(tasks)))
+    s = jax.jit(reset)(jax.random.split(jax.random.PRNGKey(3), 8), jnp.ones(8))
+    objects = np.asarray(s.info["object"])
+    run = jax.jit(lambda s: jax.lax.scan(lambda s, _: (step(s, jnp.zeros((8, 51))), s.metrics["q"]), s, None,
+                                         length=200)[1])
+    q = np.asarray(run(s))
+    assert set(objects) == {0, 1}
+    for k, t in enumerate(tasks):
+        assert np.all(q[:, objects == k].max(0) >= float(t.params.q_done) - 1e-4)  # success
+
+
 def test_on_mjx_objects_of_their_own_structures_do_not_share_a_batch():
     """MJX stacks the models: one object at two nominal dampings mixes; a drawer and a door each in its own structure
     (other meshes) is one error line, nothing compiled (a mix of them is built on the template: below)."""
