@@ -3,7 +3,8 @@ expert drag plus a residual, with the handle-frame observation) against the gene
 each over ``train --generalist``'s objects (the procedural mix, one per category held aside) at the same budget,
 then zero-shot on the four shared objects, det, C engine.
 
-    python experiments/generalist_residual.py OUT [--epochs 1221] [--seed 0] [--damping 1,4,8] [--episodes 50]
+    python experiments/generalist_residual.py OUT [--epochs 1221] [--seed 0] [--arms generalist,residual]
+        [--damping 1,4,8] [--episodes 50]
 
 Resumable: a finished arm is only evaluated, an unfinished one resumed. Writes OUT/screen.json and OUT/screen.md: per
 arm and object, success at each damping and the physical figures (wrist load and palm speed p95, penetration, the
@@ -61,6 +62,7 @@ def main(argv=None) -> int:
     ap.add_argument("out")
     ap.add_argument("--epochs", type=int, default=1221, help="a quarter of the generalist's 10 M env steps")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--arms", default=",".join(ARMS))
     ap.add_argument("--damping", default="1,4,8")
     ap.add_argument("--episodes", type=int, default=50)
     a = ap.parse_args(argv)
@@ -69,7 +71,8 @@ def main(argv=None) -> int:
     protocol = EvalProtocol(dampings=tuple(dampings), modes=("det",), episodes=a.episodes)
     results = out / "screen.json"
     rows = json.loads(results.read_text()) if results.exists() else {}
-    for arm, method in ARMS.items():
+    for arm in a.arms.split(","):
+        method = ARMS[arm]
         # the generalist trains on the dataset's trajectories, as train --generalist; the residual generates its own
         # under its expert's grasp
         final = train(out / arm, method, a.epochs, a.seed, objects, trajectories if arm == "generalist" else None,
@@ -78,7 +81,7 @@ def main(argv=None) -> int:
             if o in rows.get(arm, {}):
                 continue
             program, ts, run, ck = load_run(final, "mujoco", object_dir=str(SHARED / o))
-            result, _ = evaluate_loaded(program, ts, run, ck, protocol, on=str(SHARED / o))
+            result, _ = evaluate_loaded(program, ts, run, ck, protocol, on=o)
             rows.setdefault(arm, {})[o] = [{k: x[k] for k in ("damping", "success_rate", *FIGURES) if k in x}
                                            for x in result["cells"]]
             atomic_write_json(results, rows)

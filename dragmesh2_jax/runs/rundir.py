@@ -295,8 +295,8 @@ class RunDir:
     def evaluation_path(self, checkpoint: Path, protocol: EvalProtocol, suffix: str = ".json",
                         on: str | None = None) -> Path:
         """Where an evaluation goes: by checkpoint and protocol, and ``on`` another object than the run's own (a
-        zero-shot evaluation, by the object's name)."""
-        where = f"__on-{on}" if on else ""
+        zero-shot evaluation, by the object's name: a folder given for it is named by its last part)."""
+        where = f"__on-{Path(on).name}" if on else ""
         return self.path / EVALUATIONS / f"{checkpoint.name}__{protocol.name}{where}{suffix}"
 
     def write_evaluation(self, checkpoint: Path, protocol: EvalProtocol, result: dict, markdown: str,

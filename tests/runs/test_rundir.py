@@ -65,6 +65,9 @@ def test_evaluations_are_kept_by_checkpoint_and_protocol(run):
     assert run.evaluation(run.policy_checkpoint(), tiny) == json.loads(p1.read_text())
     assert [c["damping"] for c in run.evaluation(run.policy_checkpoint(), x8)["cells"]] == [4.0, 8.0]
     assert p1.with_suffix(".md").is_file()
+    # a zero-shot evaluation is kept beside them by the object's name, a folder given for it named by its last part
+    elsewhere = run.evaluation_path(run.policy_checkpoint(), tiny, on="/objects/shared/45780")
+    assert elsewhere.parent == p1.parent and elsewhere.name.endswith("__on-45780.json")
 
 
 def _mutations(rng: random.Random, text: str):
