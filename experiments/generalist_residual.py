@@ -8,13 +8,19 @@ then zero-shot on the four shared objects, det, C engine.
 
 Resumable: a finished arm is only evaluated, an unfinished one resumed. Writes OUT/screen.json and OUT/screen.md: per
 arm and object, success at each damping and the physical figures (wrist load and palm speed p95, penetration, the
-applied action's saturation and the policy's own)."""
+applied action's saturation and the policy's own). Over seeds (one OUT per seed):
+
+    python experiments/generalist_residual.py --seeds OUT_s0 OUT_s1 OUT_s2
+
+per arm and object, success at each damping as mean ± standard error (every seed), the figures' means."""
 
 from __future__ import annotations
 
 import argparse
 import json
 from pathlib import Path
+
+import numpy as np
 
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
@@ -57,16 +63,47 @@ def table(rows: dict, dampings: list[float]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _cell(values: list[float]) -> str:
+    v = np.asarray(values)
+    se = v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0.0
+    return f"{v.mean():.2f} ± {se:.2f} ({', '.join(f'{x:.2f}' for x in v)})"
+
+
+def seeds_table(screens: list[dict], dampings: list[float]) -> str:
+    """Per arm and object over the seeds that evaluated it: success at each damping (mean ± SE, every seed), the
+    x1 and last damping's wrist load and palm speed p95 and the deepest penetration, means over seeds."""
+    lines = ["| arm | object | seeds | " + " | ".join(f"x{d:g}" for d in dampings) + " | wrist load p95 x1 / "
+             f"x{dampings[-1]:g} [N] | palm p95 x1 -> x{dampings[-1]:g} [m/s] | penetration max [mm] |",
+             "|---" * (6 + len(dampings)) + "|"]
+    arms = dict.fromkeys(arm for rows in screens for arm in rows)
+    for arm in arms:
+        for o in dict.fromkeys(o for rows in screens for o in rows.get(arm, {})):
+            runs = [{x["damping"]: x for x in rows[arm][o]} for rows in screens if o in rows.get(arm, {})]
+            lo, hi = ({k: np.mean([c[d][k] for c in runs]) for k in ("wrist_load_peak_n", "palm_speed_peak_m_s")}
+                      for d in (dampings[0], dampings[-1]))
+            lines.append(f"| {arm} | {o} | {len(runs)} | " + " | ".join(_cell([c[d]["success_rate"] for c in runs])
+                                                                      for d in dampings) +
+                         f" | {lo['wrist_load_peak_n']:.0f} / {hi['wrist_load_peak_n']:.0f} | "
+                         f"{lo['palm_speed_peak_m_s']:.2f} -> {hi['palm_speed_peak_m_s']:.2f} | "
+                         f"{max(x['penetration_max_mm'] for c in runs for x in c.values()):.1f} |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("out")
+    ap.add_argument("out", nargs="+", help="the screen's folder (with --seeds: one per seed)")
+    ap.add_argument("--seeds", action="store_true", help="table the screens of OUT... over seeds")
     ap.add_argument("--epochs", type=int, default=1221, help="a quarter of the generalist's 10 M env steps")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--arms", default=",".join(ARMS))
     ap.add_argument("--damping", default="1,4,8")
     ap.add_argument("--episodes", type=int, default=50)
     a = ap.parse_args(argv)
-    out, dampings = Path(a.out), [float(x) for x in a.damping.split(",")]
+    dampings = [float(x) for x in a.damping.split(",")]
+    if a.seeds:
+        print(seeds_table([json.loads((Path(o) / "screen.json").read_text()) for o in a.out], dampings), end="")
+        return 0
+    out = Path(a.out[0])
     objects, trajectories, holdout = generalist_objects(out / "mix", progress=False)
     protocol = EvalProtocol(dampings=tuple(dampings), modes=("det",), episodes=a.episodes)
     results = out / "screen.json"

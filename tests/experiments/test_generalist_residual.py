@@ -25,3 +25,14 @@ def test_each_arm_and_object_is_a_row_with_its_success_and_how_it_was_opened():
     assert scratch == ("| generalist | 45780 | 1.00 | 0.50 | 0.00 | 150 / 1200 | 0.10 -> 0.80 | 16.0 | 0.90 / 0.90 |")
     assert residual == "| residual | 45780 | 1.00 | 1.00 | 0.96 | 20 / 160 | 0.10 -> 0.80 | 16.0 | 0.90 / 0.10 |"
     assert generalist_residual.ARMS == {"generalist": "generalist", "residual": "generalist_residual"}
+
+
+def test_over_seeds_each_arm_and_object_is_the_mean_and_standard_error_with_every_seed():
+    screens = [{"residual": {"11712": _cells({1.0: 1.0, 8.0: x8}, load, 0.1)}}
+               for x8, load in ((1.0, 20.0), (0.5, 40.0), (0.0, 60.0))]
+    screens[1]["generalist"] = {"11712": _cells({1.0: 0.5, 8.0: 0.0}, 150.0, None)}  # one seed only
+    header, rule, residual, scratch = generalist_residual.seeds_table(screens, [1.0, 8.0]).splitlines()
+    assert header.startswith("| arm | object | seeds | x1 | x8 |")
+    assert residual == ("| residual | 11712 | 3 | 1.00 ± 0.00 (1.00, 1.00, 1.00) | 0.50 ± 0.29 (1.00, 0.50, 0.00) "
+                        "| 40 / 320 | 0.10 -> 0.80 | 16.0 |")
+    assert scratch.startswith("| generalist | 11712 | 1 | 0.50 ± 0.00 (0.50) | 0.00 ± 0.00 (0.00) | 150 / 1200 |")
