@@ -6,6 +6,10 @@ then zero-shot on the four shared objects, det, C engine.
     python experiments/generalist_residual.py OUT [--epochs 1221] [--seed 0] [--arms generalist,residual]
         [--damping 1,4,8] [--episodes 50]
 
+The arm ``expert`` (after ``residual``) is the expert drag the residual adds to, replayed open-loop from the same
+starts under the residual's task (its grasp): the figures the force clause of results/generalist_residual/RULE.md
+compares with.
+
 Resumable: a finished arm is only evaluated, an unfinished one resumed. Writes OUT/screen.json and OUT/screen.md: per
 arm and object, success at each damping and the physical figures (wrist load and palm speed p95, penetration, the
 applied action's saturation and the policy's own). Over seeds (one OUT per seed):
@@ -22,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dragmesh2_jax.baselines.tracking import tracking_controller
+from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.runs.commands import evaluate_loaded, load_run, train_run
@@ -31,6 +37,7 @@ from dragmesh2_jax.runs.spec import apply_overrides, method_defaults
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "gapartnet"
 SHARED_OBJECTS = ("45261", "45661", "45780", "11712")  # tuning (45261, 45661) and validation (45780, 11712)
 ARMS = {"generalist": "generalist", "residual": "generalist_residual"}
+EXPERT = "expert"  # the expert drag under the residual arm's task: not trained, evaluated from its final checkpoint
 FIGURES = ("wrist_load_peak_n", "palm_speed_peak_m_s", "penetration_max_mm", "clip099_active", "clip099_policy_active")
 
 
@@ -109,16 +116,24 @@ def main(argv=None) -> int:
     results = out / "screen.json"
     rows = json.loads(results.read_text()) if results.exists() else {}
     for arm in a.arms.split(","):
-        method = ARMS[arm]
-        # the generalist trains on the dataset's trajectories, as train --generalist; the residual generates its own
-        # under its expert's grasp
-        final = train(out / arm, method, a.epochs, a.seed, objects, trajectories if arm == "generalist" else None,
-                      holdout)
+        if arm == EXPERT:
+            final = out / "residual" / "checkpoints" / "final"
+            if not final.exists():
+                raise SystemExit(f"error: {final}: the expert arm replays the residual arm's task; train it first")
+        else:
+            # the generalist trains on the dataset's trajectories, as train --generalist; the residual generates its
+            # own under its expert's grasp
+            final = train(out / arm, ARMS[arm], a.epochs, a.seed, objects,
+                          trajectories if arm == "generalist" else None, holdout)
         for o in SHARED_OBJECTS:
             if o in rows.get(arm, {}):
                 continue
             program, ts, run, ck = load_run(final, "mujoco", object_dir=str(SHARED / o))
-            result, _ = evaluate_loaded(program, ts, run, ck, protocol, on=o)
+            if arm == EXPERT:
+                task = protocol.task(program.task)
+                result = evaluate(task, tracking_controller(task), protocol)
+            else:
+                result, _ = evaluate_loaded(program, ts, run, ck, protocol, on=o)
             rows.setdefault(arm, {})[o] = [{k: x[k] for k in ("damping", "success_rate", *FIGURES) if k in x}
                                            for x in result["cells"]]
             atomic_write_json(results, rows)

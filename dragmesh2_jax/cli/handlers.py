@@ -251,12 +251,11 @@ def cmd_train(args) -> int:
             raise DragMeshError(f"--seeds: distinct whole numbers expected, got {args.seeds!r}")
         seeds = [int(s) for s in seeds]
     if args.generalist:
-        given = [f for f, v in (("--method", args.method), ("--object", args.object), ("--objects", args.objects),
-                                ("--dataset", args.dataset), ("--trajectory", args.trajectory),
-                                ("--holdout", args.holdout)) if v is not None]
+        given = [f for f, v in (("--object", args.object), ("--objects", args.objects), ("--dataset", args.dataset),
+                                ("--trajectory", args.trajectory), ("--holdout", args.holdout)) if v is not None]
         if given:
-            raise DragMeshError(f"--generalist trains its own method over its own objects: drop {', '.join(given)}")
-    method = GENERALIST if args.generalist else args.method
+            raise DragMeshError(f"--generalist trains over its own objects: drop {', '.join(given)}")
+    method = args.method or GENERALIST if args.generalist else args.method
     default = train_defaults(args.out, method, args.resume, seeds)
     if args.help_tree:
         print_tree_help(default, TRAIN_PROG)
@@ -270,7 +269,8 @@ def cmd_train(args) -> int:
     tree = parse_tree(args.rest, default, TRAIN_PROG)
     if args.generalist:
         program, logs = generalist_run(args.out, seeds, args.resume, args.backend, args.impl, tree,
-                                       progress=not args.quiet, wandb=args.wandb, overwrite=args.overwrite)
+                                       progress=not args.quiet, wandb=args.wandb, overwrite=args.overwrite,
+                                       method=args.method)
         _print_trained(args.out, program, logs)
         return 0
     objects, trajectory = args.object, args.trajectory

@@ -190,7 +190,8 @@ def build_parser() -> argparse.ArgumentParser:
     ptr.add_argument("--generalist", action="store_true",
                      help="the project's generalist: the generalist method over procedural objects of every "
                           f"category ({sum(GENERALIST_MIX.values())}, built into OUT/objects; one per category held "
-                          "aside for its robustness checks), 10 M env steps; no --object/--objects/--dataset/--method")
+                          "aside for its robustness checks), 10 M env steps; --method: another method over them "
+                          "(generalist_residual); no --object/--objects/--dataset")
     ptr.add_argument("--object", help="object folder")
     ptr.add_argument("--objects", nargs="+", metavar="FOLDER", help="several object folders: one policy over all of "
                                                                     "them (each world draws one at every reset)")

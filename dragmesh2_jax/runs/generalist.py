@@ -16,10 +16,19 @@ from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.ppo.checkpoint import save_actor
 from dragmesh2_jax.ppo.train import TrainProgram
 from dragmesh2_jax.render import VIDEO_EVERY, render_policy_video
-from dragmesh2_jax.runs.commands import dataset_objects, evaluate_loaded, load_run, run_dirs, train_run
+from dragmesh2_jax.runs.commands import (
+    dataset_objects,
+    evaluate_loaded,
+    load_run,
+    run_dirs,
+    train_defaults,
+    train_run,
+)
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, RunDir
 from dragmesh2_jax.runs.spec import RunSpec
+from dragmesh2_jax.task.load import generator_params
 from dragmesh2_jax.trajectory.dataset import build_dataset
+from dragmesh2_jax.trajectory.generator import GeneratorParams
 from dragmesh2_jax.trajectory.schema import write_trajectory
 
 GENERALIST = "generalist"  # its method, and the packaged run's name (runs/rundir.PACKAGED)
@@ -42,16 +51,21 @@ def generalist_objects(out: str | Path, progress: bool = True) -> tuple[list[str
 
 def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str, impl: str,
                    tree: RunSpec | None = None, progress: bool = True, wandb: str | None = None,
-                   overwrite: bool = False) -> tuple[TrainProgram, list]:
-    """``train --generalist``: the ``generalist`` method over its objects (``generalist_objects``), new or resumed;
-    ``tree``: its configuration tree as the command's flags left it (None: the method's, or the recorded run's)."""
+                   overwrite: bool = False, method: str | None = None) -> tuple[TrainProgram, list]:
+    """``train --generalist``: ``method`` (None: ``tree``'s; the ``generalist`` method, or the recorded run's when it
+    resumes) over the generalist's objects (``generalist_objects``), new or resumed; ``tree``: its configuration tree
+    as the command's flags left it. A method whose expert grasps the handle otherwise than the dataset's generator
+    (``generalist_residual``: the seated grasp that holds) trains on trajectories generated under its own grasp."""
+    tree = tree or train_defaults(out, method or GENERALIST, resume, seeds)
     with RunDir(out).writing():  # its objects are built into OUT: by the one writer, and never into another run
         if not resume and not overwrite:
             for run in run_dirs(out, seeds):
                 run.require_new()
         objects, trajectories, holdout = generalist_objects(out, progress)
-        return train_run(out, objects, None if resume else trajectories, GENERALIST, tree, backend, impl, seeds,
-                         resume, progress=progress, wandb=wandb, holdout=holdout, overwrite=overwrite)
+        own_grasp = generator_params(tree.task) != GeneratorParams()  # the dataset's generator
+        return train_run(out, objects, None if resume or own_grasp else trajectories, method or tree.method, tree,
+                         backend, impl, seeds, resume, progress=progress, wandb=wandb, holdout=holdout,
+                         overwrite=overwrite)
 
 
 def package_run(checkpoint: str, dest: str | Path, command: str) -> Path:

@@ -27,6 +27,7 @@ from dragmesh2_jax.runs.presets import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, 
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED, RunDir
 from dragmesh2_jax.runs.spec import method_defaults
 from dragmesh2_jax.task.mix import CURRICULUM_PRIOR, CURRICULUM_RATE
+from dragmesh2_jax.trajectory.schema import read_trajectory
 from tests.conftest import TINY_RUNS, installed_command, require_warp
 
 pytestmark = pytest.mark.xdist_group(TINY_RUNS)  # beside the other tiny runs: the engine's programs compile once
@@ -84,9 +85,29 @@ def test_train_generalist_trains_its_method_over_its_mix_and_resumes(generalist_
                       "--backend", "mujoco", "--quiet"]) == 0
     assert RunDir(generalist_run).log_rows()[-1]["epoch"] == 3
     capsys.readouterr()
-    for bad in (["--object", str(default_object())], ["--method", "pica"]):
+    for bad in (["--object", str(default_object())], ["--dataset", str(generalist_run / "objects")]):
         assert dragmesh2(["train", "--generalist", "--out", str(generalist_run / "x"), *bad]) == 2
-        assert capsys.readouterr().err.startswith("error: --generalist trains its own method")
+        assert capsys.readouterr().err.startswith("error: --generalist trains over its own objects")
+
+
+def test_train_generalist_trains_another_method_over_the_mix_under_that_method_s_own_grasp(tmp_path, monkeypatch):
+    """``--method generalist_residual``: the residual over each object's expert drag, its expert's grasp seated
+    (``task.expert_grasp``), so its trajectories are generated under that grasp, not taken from the mix's dataset
+    (the generator's planned grasp); a resume keeps the recorded method without naming it."""
+    monkeypatch.setattr(procedural, "GENERALIST_MIX", TINY_MIX)
+    out = tmp_path / "run"
+    assert dragmesh2(["train", "--generalist", "--method", "generalist_residual", "--out", str(out), "--seed", "3",
+                      *TINY]) == 0
+    run = RunDir(out)
+    assert run.spec().method == "generalist_residual" and run.spec().holdout == 2 and len(run.spec().objects) == 3
+    dataset = out / "objects" / "trajectories" / f"{Path(run.spec().objects[0]).name}.json"
+    generated = {w: read_trajectory(path).header["generator"]["params"]
+                 for w, path in (("dataset", dataset), ("run", run.trajectory_path))}
+    assert generated["dataset"]["seat_depth"] is None and generated["dataset"]["placement_choice"] == "first"
+    assert generated["run"]["seat_depth"] is not None and generated["run"]["placement_choice"] == "holds"
+    assert dragmesh2(["train", "--generalist", "--out", str(out), "--resume", "--epochs", "3", "--backend",
+                      "mujoco", "--quiet"]) == 0
+    assert run.log_rows()[-1]["epoch"] == 3 and RunDir(out).spec().method == "generalist_residual"
 
 
 @pytest.mark.long
