@@ -4,7 +4,7 @@ each over ``train --generalist``'s objects (the procedural mix, one per category
 then zero-shot on the four shared objects, det, C engine.
 
     python experiments/generalist_residual.py OUT [--epochs 1221] [--seed 0] [--arms generalist,residual]
-        [--damping 1,4,8] [--episodes 50]
+        [--damping 1,4,8] [--episodes 50] [--also DIR ...]
 
 The arm ``expert`` (after ``residual``) is the expert drag the residual adds to, replayed open-loop from the same
 starts under the residual's task (its grasp): the figures the force clause of results/generalist_residual/RULE.md
@@ -105,6 +105,8 @@ def main(argv=None) -> int:
     ap.add_argument("--arms", default=",".join(ARMS))
     ap.add_argument("--damping", default="1,4,8")
     ap.add_argument("--episodes", type=int, default=50)
+    ap.add_argument("--also", nargs="*", default=[], metavar="DIR",
+                    help="more object folders to evaluate zero-shot after the shared ones (the suite's doors)")
     a = ap.parse_args(argv)
     dampings = [float(x) for x in a.damping.split(",")]
     if a.seeds:
@@ -125,10 +127,11 @@ def main(argv=None) -> int:
             # own under its expert's grasp
             final = train(out / arm, ARMS[arm], a.epochs, a.seed, objects,
                           trajectories if arm == "generalist" else None, holdout)
-        for o in SHARED_OBJECTS:
+        for folder in [SHARED / o for o in SHARED_OBJECTS] + [Path(x) for x in a.also]:
+            o = folder.name
             if o in rows.get(arm, {}):
                 continue
-            program, ts, run, ck = load_run(final, "mujoco", object_dir=str(SHARED / o))
+            program, ts, run, ck = load_run(final, "mujoco", object_dir=str(folder))
             if arm == EXPERT:
                 task = protocol.task(program.task)
                 result = evaluate(task, tracking_controller(task), protocol)
