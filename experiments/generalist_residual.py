@@ -16,7 +16,9 @@ applied action's saturation and the policy's own). Over seeds (one OUT per seed)
 
     python experiments/generalist_residual.py --seeds OUT_s0 OUT_s1 OUT_s2
 
-per arm and object, success at each damping as mean ± standard error (every seed), the figures' means."""
+per arm and object, success at each damping as mean ± standard error (every seed), the figures' means; where a screen
+holds the expert arm, then the adoption rule's clauses (results/generalist_residual/RULE.md) on the validation objects,
+each with its figures and verdict."""
 
 from __future__ import annotations
 
@@ -38,6 +40,10 @@ SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "gapartnet"
 SHARED_OBJECTS = ("45261", "45661", "45780", "11712")  # tuning (45261, 45661) and validation (45780, 11712)
 ARMS = {"generalist": "generalist", "residual": "generalist_residual"}
 EXPERT = "expert"  # the expert drag under the residual arm's task: not trained, evaluated from its final checkpoint
+VALIDATION = ("45780", "11712")  # the objects the adoption rule judges
+#: What the residual generalist must beat at x4 and x8: the packaged generalist zero-shot, det
+PACKAGED = Path(__file__).resolve().parents[1] / "results" / "generalist_v3" / "packaged_zero_shot.json"
+LOAD_CLAUSE, PALM_CLAUSE = 1.2, 2.0  # x1 wrist load and every damping's palm speed, relative to the expert's at x1
 FIGURES = ("wrist_load_peak_n", "palm_speed_peak_m_s", "penetration_max_mm", "clip099_active", "clip099_policy_active")
 
 
@@ -96,6 +102,30 @@ def seeds_table(screens: list[dict], dampings: list[float]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def rule_table(screens: list[dict], packaged: dict, objects=VALIDATION) -> str:
+    """The adoption rule on ``objects``: the residual's det success at x4 and x8 (means over the seeds) against the
+    packaged generalist's (``packaged``: its zero-shot evaluation), its x1 wrist load and its highest palm speed over
+    the dampings (means over seeds) relative to the expert's at x1 (the first screen holding the expert arm)."""
+    expert = next(rows[EXPERT] for rows in screens if EXPERT in rows)
+    lines = ["| object | seeds | x4 (packaged) | x8 (packaged) | x1 load / the expert's | highest palm / the expert's "
+             "x1 | adopted on it |", "|---" * 7 + "|"]
+    for o in objects:
+        runs = [{x["damping"]: x for x in rows["residual"][o]} for rows in screens if o in rows.get("residual", {})]
+        mean = {d: {k: np.mean([c[d][k] for c in runs]) for k in ("success_rate", "wrist_load_peak_n",
+                                                                   "palm_speed_peak_m_s")} for d in runs[0]}
+        old = {c["damping"]: c["success_rate"] for c in packaged["objects"][o] if c["mode"] == "det"}
+        e = {x["damping"]: x for x in expert[o]}[1.0]
+        # judged as tabled, to two decimals: a mean's last bit does not decide a clause
+        load = round(mean[1.0]["wrist_load_peak_n"] / e["wrist_load_peak_n"], 2)
+        palm = round(max(m["palm_speed_peak_m_s"] for m in mean.values()) / e["palm_speed_peak_m_s"], 2)
+        ok = (mean[4.0]["success_rate"] > old[4.0] and mean[8.0]["success_rate"] > old[8.0] and load <= LOAD_CLAUSE
+              and palm <= PALM_CLAUSE)
+        lines.append(f"| {o} | {len(runs)} | {mean[4.0]['success_rate']:.2f} ({old[4.0]:.2f}) | "
+                     f"{mean[8.0]['success_rate']:.2f} ({old[8.0]:.2f}) | {load:.2f} (<= {LOAD_CLAUSE:g}) | "
+                     f"{palm:.2f} (<= {PALM_CLAUSE:g}) | {'yes' if ok else 'no'} |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", nargs="+", help="the screen's folder (with --seeds: one per seed)")
@@ -110,7 +140,10 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     dampings = [float(x) for x in a.damping.split(",")]
     if a.seeds:
-        print(seeds_table([json.loads((Path(o) / "screen.json").read_text()) for o in a.out], dampings), end="")
+        screens = [json.loads((Path(o) / "screen.json").read_text()) for o in a.out]
+        print(seeds_table(screens, dampings), end="")
+        if any(EXPERT in rows for rows in screens):
+            print("\n" + rule_table(screens, json.loads(PACKAGED.read_text())), end="")
         return 0
     out = Path(a.out[0])
     objects, trajectories, holdout = generalist_objects(out / "mix", progress=False)

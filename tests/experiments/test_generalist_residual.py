@@ -36,3 +36,21 @@ def test_over_seeds_each_arm_and_object_is_the_mean_and_standard_error_with_ever
     assert residual == ("| residual | 11712 | 3 | 1.00 ± 0.00 (1.00, 1.00, 1.00) | 0.50 ± 0.29 (1.00, 0.50, 0.00) "
                         "| 40 / 320 | 0.10 -> 0.80 | 16.0 |")
     assert scratch.startswith("| generalist | 11712 | 1 | 0.50 ± 0.00 (0.50) | 0.00 ± 0.00 (0.00) | 150 / 1200 |")
+
+
+def test_the_rule_adopts_only_what_beats_the_packaged_generalist_at_x4_and_x8_within_the_force_clause():
+    """Load and palm relative to the expert's at x1: on 45780 1.15x the load and 2x the palm pass; on 11712 a pull of
+    1.25x the expert's fails though every damping opens."""
+    dampings = {1.0: 1.0, 4.0: 1.0, 8.0: 0.9}
+    screens = [{"residual": {"45780": _cells(dampings, 11.5, 0.1), "11712": _cells(dampings, 25.0, 0.1)}}
+               for _ in range(3)]
+    screens[0]["expert"] = {o: _cells({1.0: 1.0, 4.0: 1.0, 8.0: 1.0}, 10.0 if o == "45780" else 20.0, None)
+                            for o in ("45780", "11712")}
+    for o in ("45780", "11712"):  # the palm at x8 0.8 m/s: twice the expert's at x1
+        screens[0]["expert"][o][0]["palm_speed_peak_m_s"] = 0.4
+    packaged = {"objects": {o: [{"damping": d, "mode": m, "success_rate": s} for d, s in ((4.0, 0.65), (8.0, 0.0))
+                                for m in ("det", "stoch")] for o in ("45780", "11712")}}
+    header, rule, door, fridge = generalist_residual.rule_table(screens, packaged).splitlines()
+    assert header.startswith("| object | seeds | x4 (packaged) | x8 (packaged) |")
+    assert door == "| 45780 | 3 | 1.00 (0.65) | 0.90 (0.00) | 1.15 (<= 1.2) | 2.00 (<= 2) | yes |"
+    assert fridge == "| 11712 | 3 | 1.00 (0.65) | 0.90 (0.00) | 1.25 (<= 1.2) | 2.00 (<= 2) | no |"
