@@ -222,7 +222,7 @@ METHODS = {m.name: m for m in (
            "the handle-frame observation: the expert drag exists for every object a user opens; the generalist's "
            "budget",
            {**SEATED_HOLDS, "task.observation": "handle", **GENERALIST_SCHEDULE},
-           status="experimental", evidence="results/generalist_residual/ (a one-seed screen)"),
+           status="experimental", evidence="results/generalist_residual/ (3 seeds; its rule did not adopt it)"),
     Method("hold_blind_residual", "the recipe (hold_blind) as a residual over the expert drag: the policy's action "
            "adds to the one that follows the drag at its own pace (its zero replays the expert), so it learns the "
            "corrections, not the pull", {**HOLD_BLIND, **RESIDUAL},
