@@ -33,7 +33,7 @@ from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import atomic_write_json, atomic_write_text
 from dragmesh2_jax.runs.commands import evaluate_loaded, load_run, train_run
-from dragmesh2_jax.runs.generalist import generalist_objects
+from dragmesh2_jax.runs.generalist import generalist_objects, own_trajectories
 from dragmesh2_jax.runs.spec import apply_overrides, method_defaults
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "gapartnet"
@@ -156,10 +156,8 @@ def main(argv=None) -> int:
             if not final.exists():
                 raise SystemExit(f"error: {final}: the expert arm replays the residual arm's task; train it first")
         else:
-            # the generalist trains on the dataset's trajectories, as train --generalist; the residual generates its
-            # own under its expert's grasp
             final = train(out / arm, ARMS[arm], a.epochs, a.seed, objects,
-                          trajectories if arm == "generalist" else None, holdout)
+                          own_trajectories(method_defaults(ARMS[arm]), trajectories), holdout)
         for folder in [SHARED / o for o in SHARED_OBJECTS] + [Path(x) for x in a.also]:
             o = folder.name
             if o in rows.get(arm, {}):

@@ -62,10 +62,15 @@ def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str
             for run in run_dirs(out, seeds):
                 run.require_new()
         objects, trajectories, holdout = generalist_objects(out, progress)
-        own_grasp = generator_params(tree.task) != GeneratorParams()  # the dataset's generator
-        return train_run(out, objects, None if resume or own_grasp else trajectories, method or tree.method, tree,
-                         backend, impl, seeds, resume, progress=progress, wandb=wandb, holdout=holdout,
-                         overwrite=overwrite)
+        return train_run(out, objects, None if resume else own_trajectories(tree, trajectories),
+                         method or tree.method, tree, backend, impl, seeds, resume, progress=progress, wandb=wandb,
+                         holdout=holdout, overwrite=overwrite)
+
+
+def own_trajectories(tree: RunSpec, trajectories: list[str]) -> list[str] | None:
+    """The dataset's trajectories where ``tree``'s expert grasps as the dataset's generator did, else None: each
+    object's trajectory is generated under the tree's own grasp."""
+    return trajectories if generator_params(tree.task) == GeneratorParams() else None
 
 
 def package_run(checkpoint: str, dest: str | Path, command: str) -> Path:
