@@ -26,7 +26,8 @@ from dragmesh2_jax.runs.commands import (
 )
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, RunDir
 from dragmesh2_jax.runs.spec import RunSpec
-from dragmesh2_jax.task.load import generator_params
+from dragmesh2_jax.scene import SceneConfig
+from dragmesh2_jax.task.load import generator_params, plan_scene_config
 from dragmesh2_jax.trajectory.dataset import build_dataset
 from dragmesh2_jax.trajectory.generator import GeneratorParams
 from dragmesh2_jax.trajectory.schema import write_trajectory
@@ -68,9 +69,11 @@ def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str
 
 
 def own_trajectories(tree: RunSpec, trajectories: list[str]) -> list[str] | None:
-    """The dataset's trajectories where ``tree``'s expert grasps as the dataset's generator did, else None: each
-    object's trajectory is generated under the tree's own grasp."""
-    return trajectories if generator_params(tree.task) == GeneratorParams() else None
+    """The dataset's trajectories where ``tree``'s expert is planned as the dataset's generator planned it (its grasp,
+    in the default scene), else None: each object's trajectory is generated under the tree's own."""
+    same = (generator_params(tree.task) == GeneratorParams()
+            and plan_scene_config(tree.task, tree.scene) == SceneConfig())
+    return trajectories if same else None
 
 
 def package_run(checkpoint: str, dest: str | Path, command: str) -> Path:

@@ -153,6 +153,10 @@ FIRM_GRIP: dict[str, Any] = {"scene.object_contact": "hand", "scene.hand.finger.
 #: A pace that yields: the prior's target at most a fifth of the part's range ahead of the part (on the expert drag:
 #: x1-x8 unchanged, its palm's pace kept at x16 and three doors opened there; results/pace/).
 YIELDING: dict[str, Any] = {"task.prior_lead": 0.2}
+#: The seat planned where MuJoCo's soft contacts make it (the recipe's own trajectory) and held on the firm grip's
+#: physics: the fingers seated 4-9 mm deep press the handle with that preload, which the stiff contacts keep on its
+#: surface (the expert replayed: x8 on 11 of 11 objects at 0.7-6.4 mm; results/screen/RULE.md, ninth lever).
+SOFT_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "mujoco"}
 
 
 @dataclass(frozen=True)
@@ -302,6 +306,10 @@ METHODS = {m.name: m for m in (
            "checkpoint",
            {**SEATED_HOLDS, **FIRM_GRIP, **YIELDING}, status="experimental",
            evidence="results/screen/RULE.md (eighth lever)"),
+    Method("hold_blind_residual_seat", "hold_blind_residual_grip over the recipe's own expert drag: its seat planned "
+           "on MuJoCo's soft contacts and held on the hand's, so the fingers press the handle with the seat's "
+           "preload and stay on its surface; 150 epochs, read at its final checkpoint",
+           {**SEATED_HOLDS, **SOFT_SEAT}, status="experimental", evidence="results/screen/RULE.md (ninth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

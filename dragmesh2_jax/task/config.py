@@ -105,6 +105,11 @@ ExpertGrasp = Literal["seated", "planned"]
 #: highest damping (``trajectory.generator.HOLD_DAMPINGS``; RESULTS.md, the suite); with the seated grasp, a planned
 #: placement where it holds more than every seated one (generator 1.4: the recipe's expert, RESULTS.md §3).
 ExpertPlacement = Literal["first", "holds"]
+#: The physics the generated trajectory is planned, seated and chosen in (``expert_plan_contact``): "scene", the run's
+#: own; "mujoco", MuJoCo's default object contacts and the hand's default finger drives (``SceneConfig()``'s), the
+#: trajectory a run on those makes. Its soft contacts seat the hand 4-9 mm into the handle; run on the hand's stiff
+#: contacts, that seat is a preload that holds the part where a seat planned on them grips with 5-6 N (RESULTS.md §3).
+ExpertPlanContact = Literal["scene", "mujoco"]
 EXPERT_UNITS = get_args(ExpertUnit)
 #: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
 #: grasp and the wrist's rotation keep the policy's whole range).
@@ -322,6 +327,8 @@ class TaskConfig:
     """beyond the paper, the grasp the generated trajectory holds the handle with (ExpertGrasp's comment)"""
     expert_placement: ExpertPlacement = "first"
     """beyond the paper, which palm placement the generated trajectory grasps with (ExpertPlacement's comment)"""
+    expert_plan_contact: ExpertPlanContact = "scene"
+    """beyond the paper, the physics the generated trajectory is planned in (ExpertPlanContact's comment)"""
     grip_closure: float = 0.04
     """rad, under the seated grasp: how far past where the handle stopped them the fingers' targets close (the grip's
     force, at most the finger drives' limit; below alpha, so that the expert's own action stays inside its bound)"""

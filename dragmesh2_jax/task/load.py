@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.assets.hand import HandConfig
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
@@ -31,6 +33,15 @@ def generator_params(config: TaskConfig) -> GeneratorParams:
                            hold_steps=config.episode_length)
 
 
+def plan_scene_config(config: TaskConfig, scene_config: SceneConfig) -> SceneConfig:
+    """The scene the task's trajectory is generated in: ``scene_config``, or under ``expert_plan_contact`` "mujoco"
+    that scene with MuJoCo's default object contacts and the hand's default finger drives."""
+    if config.expert_plan_contact == "scene":
+        return scene_config
+    hand = replace(scene_config.hand, finger=HandConfig().finger)
+    return replace(scene_config, object_contact=SceneConfig().object_contact, hand=hand)
+
+
 def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskConfig,
             scene_config: SceneConfig = SceneConfig(), slots: int | None = None) -> PullTask:
     """Object + trajectory (a file, a trajectory, or None: generated) -> the task, in ``scene_config`` (on the
@@ -42,4 +53,8 @@ def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskCo
     if traj is not None:
         obj = adopt_trajectory_target(obj, traj)
     scene = build_scene(obj, scene_config, slots=slots)
-    return PullTask(scene, generate(obj, generator_params(config), scene=scene) if traj is None else traj, config)
+    if traj is None:
+        planned_in = plan_scene_config(config, scene_config)
+        plan_scene = scene if planned_in == scene_config else build_scene(obj, planned_in, slots=slots)
+        traj = generate(obj, generator_params(config), scene=plan_scene)
+    return PullTask(scene, traj, config)
