@@ -9,6 +9,9 @@ unseen doors, and thick handles on heavy doors.
         --out results/suite/planned_hand_f2.jsonl
     python experiments/door_suite.py --remeasure results/suite/suite.json --expert-placement holds \
         --out results/suite/holds_mujoco.jsonl
+    python experiments/door_suite.py --remeasure results/suite/suite.json --object-contact hand --finger-force-limit 2 \
+        --expert-grasp seated --expert-placement holds --expert-plan-contact mujoco \
+        --out results/suite/seat_hand_f2.jsonl
     python experiments/door_suite.py --table results/suite --out results/suite/table.md
 
 Each candidate is a procedural object (``objects synth --category C --count 1 --seed S``) with its trajectory; its
@@ -157,9 +160,10 @@ def capacity_table(folder: Path) -> str:
 
 
 def remeasure(objects: list[dict], object_contact: str, expert_grasp: str, expert_placement: str,
-              finger_force_limit: float, out: Path) -> None:
-    """The envelopes of ``objects`` (a suite's) under ``object_contact``, ``expert_grasp``, ``expert_placement`` and
-    the finger drives' torque limit, with each cell's replay and the capacity's cells, as JSON lines."""
+              finger_force_limit: float, out: Path, expert_plan_contact: str = "scene") -> None:
+    """The envelopes of ``objects`` (a suite's) under ``object_contact``, ``expert_grasp``, ``expert_placement``,
+    the finger drives' torque limit and the contacts the expert is planned on (``TaskConfig.expert_plan_contact``),
+    with each cell's replay and the capacity's cells, as JSON lines."""
     rows = []
     hand = HandConfig()
     hand = replace(hand, finger=replace(hand.finger, force_limit=finger_force_limit))
@@ -168,12 +172,13 @@ def remeasure(objects: list[dict], object_contact: str, expert_grasp: str, exper
             (folder,) = synthesize(o["category"], 1, o["seed"], Path(tmp) / o["category"])
             scene = SceneConfig(object_contact=object_contact, hand=hand)
             task = load_task(str(folder), None, backend="mujoco", scene_config=scene, expert_grasp=expert_grasp,
-                             expert_placement=expert_placement)
+                             expert_placement=expert_placement, expert_plan_contact=expert_plan_contact)
             passed = bool(task.traj.header["quality"]["passed"])
             runs = replays(task, capacity=True) if passed else {}
             rows.append({**o, "object_contact": object_contact, "expert_grasp": expert_grasp,
                          "expert_placement": expert_placement, "placement": task.traj.header["generator"]["placement"],
-                         "finger_force_limit": finger_force_limit, "gate": passed,
+                         "finger_force_limit": finger_force_limit, "expert_plan_contact": expert_plan_contact,
+                         "gate": passed,
                          "envelope": {f"{p:g}@{d:g}": runs[f"{p:g}@{d:g}"]["opened"] for p, d in cells()} if passed
                          else {}, "replays": runs})
             print(json.dumps(rows[-1]), flush=True)
@@ -192,13 +197,15 @@ def main() -> None:
     ap.add_argument("--expert-placement", default="first", choices=("first", "holds"))
     ap.add_argument("--finger-force-limit", type=float, default=HandConfig().finger.force_limit,
                     help="the finger drives' torque limit (N m)")
+    ap.add_argument("--expert-plan-contact", default="scene", choices=("scene", "mujoco"),
+                    help="the contacts the expert is planned on: the scene's, or MuJoCo's default (soft) ones")
     args = ap.parse_args()
     if args.table:
         atomic_write_text(args.out, table(Path(args.table)) + "\n" + capacity_table(Path(args.table)))
         return
     if args.remeasure:
         remeasure(json.loads(Path(args.remeasure).read_text())["objects"], args.object_contact, args.expert_grasp,
-                  args.expert_placement, args.finger_force_limit, Path(args.out))
+                  args.expert_placement, args.finger_force_limit, Path(args.out), args.expert_plan_contact)
         return
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

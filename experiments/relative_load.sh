@@ -3,7 +3,7 @@
 # doors, the tuning drawers and the tuning door (procedural door_cabinet_0000, where its limit, the expert's 99-101 N
 # at x1-x8, is hold_blind_residual_smooth's 100 N), 3 seeds each, every cell 50 perturbed starts at x1-x16, det, C
 # engine. Resumable: a stopped run resumes, a finished one is only evaluated.
-#   bash experiments/relative_load.sh [OUT] [SHARED] [METHOD] [OBJECTS]   (about 12 minutes per object on 2 CPU cores)
+#   [SEEDS="0 1 2"] bash experiments/relative_load.sh [OUT] [SHARED] [METHOD] [OBJECTS]   (about 12 minutes per object on 2 CPU cores)
 # METHOD defaults to hold_blind_residual_relative; OBJECTS (names, space-separated; "door" the tuning door) to all
 # five, e.g. hold_blind_residual_relative_own "45661 door 45261 11712 45780" (RESULTS.md §3b).
 # The tables: python experiments/plausible_table.py OUT --object <object> --row "LABEL=GLOB" ... (RESULTS.md §3b).
@@ -14,7 +14,7 @@ door=$(python -c "from dragmesh2_jax.assets.procedural import packaged_object; p
 method=${3:-hold_blind_residual_relative}
 for name in ${4:-45780 11712 45661 45261 door}; do
   obj=$([ "$name" = door ] && echo "$door" || echo "$shared/$name")
-  for s in 0 1 2; do
+  for s in ${SEEDS:-0 1 2}; do
     run="$out/$(basename "$obj")_${method}_s$s"
     if [ ! -f "$run/run.json" ]; then
       dragmesh2 train --method "$method" --object "$obj" --seed "$s" --backend mujoco --out "$run" --quiet
