@@ -5,7 +5,8 @@
 # expert's placement chosen by the load it holds; seated_holds: that with the seated grasp; grip: the hand's contacts
 # and finger drives of 2 N m, so the policy can close the grip past the expert's; yield: the prior's drag target at most
 # 0.2 of the range ahead of the part; grip_yield: both; seat: grip's physics under the recipe's own trajectory, its seat
-# planned on MuJoCo's soft contacts; seat_yield: seat and yield), on three suite doors today's expert
+# planned on MuJoCo's soft contacts; seat_yield: seat and yield; seat_fine: seat, the whole hand's residual at a
+# quarter), on three suite doors today's expert
 # lets go at x4 and x8 (or OBJECTS, suite objects as category:seed); resumable (a finished run or evaluation is kept).
 # Usage: [SEEDS="0 1 2"] [WITH_TODAY=0] [OBJECTS="door_cabinet:111 ..."] bash experiments/hold_screen.sh [RUNS] [LEVER ...]
 # (seed 0's run is RUNS/LEVER_OBJECT, seed S's RUNS/LEVER_OBJECT_sS)
@@ -45,6 +46,8 @@ for obj in "${objs[@]}"; do
       --task.expert-plan-contact mujoco)
     [ "$lever" = seat_yield ] && extra=(--scene.object-contact hand --scene.hand.finger.force-limit 2 \
       --task.expert-plan-contact mujoco --task.prior-lead 0.2)
+    [ "$lever" = seat_fine ] && extra=(--scene.object-contact hand --scene.hand.finger.force-limit 2 \
+      --task.expert-plan-contact mujoco --task.residual-scope hand)
     [ "$lever" = pace_peak ] && extra=(--task.reward.constraints \
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:peak:0.05:1:20)
     [ -d "$run/seed_$seed/checkpoints/final" ] || \
