@@ -17,6 +17,9 @@ LEVERS=("${@:-hand_seated}")
 SEEDS=${SEEDS:-0}
 WITH_TODAY=${WITH_TODAY:-1}  # 0: the levers' runs alone
 OBJECTS=${OBJECTS:-door_cabinet:107 door_cabinet:109 microwave:104}
+# the hand's contacts with 2 N m fingers, and that under the recipe's own trajectory (planned on MuJoCo's contacts)
+grip=(--scene.object-contact hand --scene.hand.finger.force-limit 2)
+seat=("${grip[@]}" --task.expert-plan-contact mujoco)
 mkdir -p runs/suite
 objs=()
 for spec in $OBJECTS; do
@@ -38,16 +41,12 @@ for obj in "${objs[@]}"; do
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:rate:0.05:1:20)
     [ "$lever" = holds ] && extra=(--task.expert-placement holds)
     [ "$lever" = seated_holds ] && extra=(--task.expert-grasp seated --task.expert-placement holds)
-    [ "$lever" = grip ] && extra=(--scene.object-contact hand --scene.hand.finger.force-limit 2)
+    [ "$lever" = grip ] && extra=("${grip[@]}")
     [ "$lever" = yield ] && extra=(--task.prior-lead 0.2)
-    [ "$lever" = grip_yield ] && extra=(--scene.object-contact hand --scene.hand.finger.force-limit 2 \
-      --task.prior-lead 0.2)
-    [ "$lever" = seat ] && extra=(--scene.object-contact hand --scene.hand.finger.force-limit 2 \
-      --task.expert-plan-contact mujoco)
-    [ "$lever" = seat_yield ] && extra=(--scene.object-contact hand --scene.hand.finger.force-limit 2 \
-      --task.expert-plan-contact mujoco --task.prior-lead 0.2)
-    [ "$lever" = seat_fine ] && extra=(--scene.object-contact hand --scene.hand.finger.force-limit 2 \
-      --task.expert-plan-contact mujoco --task.residual-scope hand)
+    [ "$lever" = grip_yield ] && extra=("${grip[@]}" --task.prior-lead 0.2)
+    [ "$lever" = seat ] && extra=("${seat[@]}")
+    [ "$lever" = seat_yield ] && extra=("${seat[@]}" --task.prior-lead 0.2)
+    [ "$lever" = seat_fine ] && extra=("${seat[@]}" --task.residual-scope hand)
     [ "$lever" = pace_peak ] && extra=(--task.reward.constraints \
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:peak:0.05:1:20)
     [ -d "$run/seed_$seed/checkpoints/final" ] || \
