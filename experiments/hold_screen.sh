@@ -6,7 +6,8 @@
 # and finger drives of 2 N m, so the policy can close the grip past the expert's; yield: the prior's drag target at most
 # 0.2 of the range ahead of the part; grip_yield: both; seat: grip's physics under the recipe's own trajectory, its seat
 # planned on MuJoCo's soft contacts; seat_yield: seat and yield; seat_fine: seat, the whole hand's residual at a
-# quarter), on three suite doors today's expert
+# quarter; seat_target: seat, the residual offsetting the drag's PD target, not its clipped increment;
+# seat_target_yield: that and yield), on three suite doors today's expert
 # lets go at x4 and x8 (or OBJECTS, suite objects as category:seed); resumable (a finished run or evaluation is kept).
 # Usage: [SEEDS="0 1 2"] [WITH_TODAY=0] [OBJECTS="door_cabinet:111 ..."] bash experiments/hold_screen.sh [RUNS] [LEVER ...]
 # (seed 0's run is RUNS/LEVER_OBJECT, seed S's RUNS/LEVER_OBJECT_sS)
@@ -47,6 +48,8 @@ for obj in "${objs[@]}"; do
     [ "$lever" = seat ] && extra=("${seat[@]}")
     [ "$lever" = seat_yield ] && extra=("${seat[@]}" --task.prior-lead 0.2)
     [ "$lever" = seat_fine ] && extra=("${seat[@]}" --task.residual-scope hand)
+    [ "$lever" = seat_target ] && extra=("${seat[@]}" --task.residual-on target)
+    [ "$lever" = seat_target_yield ] && extra=("${seat[@]}" --task.residual-on target --task.prior-lead 0.2)
     [ "$lever" = pace_peak ] && extra=(--task.reward.constraints \
       relative_load:1.1:horizon:0.05:2:100,palm_speed:0.25:peak:0.05:1:20)
     [ -d "$run/seed_$seed/checkpoints/final" ] || \

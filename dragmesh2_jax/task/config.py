@@ -115,6 +115,13 @@ EXPERT_UNITS = get_args(ExpertUnit)
 #: grasp and the wrist's rotation keep the policy's whole range).
 ResidualScope = Literal["hand", "translation"]
 RESIDUAL_SCOPES = get_args(ResidualScope)
+#: What the residual adds to (``residual_on``): "action", the expert drag's increment toward this step's target, the
+#: sum clipped to the action bound (so under load, where the hand lags its target by more than alpha, the expert's grip
+#: and pull are cut to alpha's: its drag alone opens door 111 of the suite at x8 in 0.30 of the perturbed starts, as
+#: PD targets in 0.94; RESULTS.md §3); "target", the drag's target itself, offset by the residual (the applied action,
+#: the increment the target asks, may pass the bound), and PICA's action terms read the policy's own output.
+ResidualOn = Literal["action", "target"]
+RESIDUAL_ONS = get_args(ResidualOn)
 #: How a step's measure x becomes its cost c_t: ``excess`` max(0, x - limit) / limit (how far past the limit, as a
 #: fraction of it), ``rate`` 1[x > limit] (so E[c_t] is the fraction of steps past the limit), ``peak``
 #: 1[max_{s<=t} x_s > limit] (the episode's running peak past it, so E[c_t] is the share of steps after an episode
@@ -317,6 +324,8 @@ class TaskConfig:
     a residual can add; its exploration noise scaled alike); 1: the policy's whole action range"""
     residual_scope: ResidualScope = "hand"
     """beyond the paper, the channels residual_scale narrows (RESIDUAL_SCOPES' comment)"""
+    residual_on: ResidualOn = "action"
+    """beyond the paper, under expert_prior: what the policy's residual adds to (ResidualOn's comment)"""
     prior_lead: float | None = None
     """beyond the paper, under expert_prior: a pace that yields, the drag's step held back to the first whose planned
     joint lies this fraction of the part's range past the part's joint now, so the hand's target waits for a part that
@@ -378,6 +387,9 @@ class TaskConfig:
                                 f"{self.residual_scale}")
         if self.prior_lead is not None and not (0 < self.prior_lead < math.inf and self.expert_prior):
             raise DragMeshError(f"prior_lead must be finite and > 0, and only with expert_prior, got {self.prior_lead}")
+        if self.residual_on not in RESIDUAL_ONS or (self.residual_on != "action" and not self.expert_prior):
+            raise DragMeshError(f"residual_on must be one of {', '.join(RESIDUAL_ONS)}, and other than action only "
+                                f"with expert_prior, got {self.residual_on!r}")
         if self.residual_scope not in RESIDUAL_SCOPES:
             raise DragMeshError(f"unknown residual_scope {self.residual_scope!r} (choose from "
                                 f"{', '.join(RESIDUAL_SCOPES)})")

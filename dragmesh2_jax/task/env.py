@@ -51,7 +51,7 @@ from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import PEAK_COSTS, ResetNoise, TaskConfig
-from dragmesh2_jax.task.expert import RELATIVE_LOAD, drag_step, expert_drag, expert_load, load_unit, residual_gain
+from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit, residual_step
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, Obs, State
 from dragmesh2_jax.task.rewards import (
@@ -378,13 +378,12 @@ class PullTask:
 
     def step(self, state: State, action: jnp.ndarray) -> State:
         """One control step from a policy action a in [-1, 1]^51: target = clip(q_hand + alpha a, limits) (with
-        ``expert_prior``, residual_gain x a the policy's residual over the expert drag's action)."""
+        ``expert_prior``, a the policy's residual over the expert drag: ``expert.residual_step``)."""
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state)
-        if self.config.expert_prior:  # the residual over the expert drag's action of this step
-            row = drag_step(self.config, state.info["step"], k0.obj_q, self.params)
-            prior = (self.params.drag[row] - k0.hand_q) / self.config.alpha
-            a = jnp.clip(residual_gain(self.config) * a + jnp.clip(prior, -1.0, 1.0), -1.0, 1.0)
+        if self.config.expert_prior:
+            ctrl, applied = residual_step(self.config, self.params, state.info["step"], k0.hand_q, k0.obj_q, a)
+            return self._advance(state, ctrl, applied, k0.palm, a if self.config.residual_on == "target" else None)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)
 
@@ -420,24 +419,23 @@ class PullTask:
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
     def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray, a_prev: jnp.ndarray, ev: Events,
-                  unit: jnp.ndarray) -> dict[str, jnp.ndarray]:
+                  unit: jnp.ndarray, own: jnp.ndarray) -> dict[str, jnp.ndarray]:
         """This step's value of each quantity a constraint can bound (``config.MEASURES``; ``unit``: the relative
-        load's, the expert's peak at this world's start and damping)."""
+        load's, the expert's peak at this world's start and damping; the saturations of ``own``)."""
         p = self.params
         lag = (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start)  # one schedule entry per step
         load = jnp.linalg.norm(k.force[:3])
         return {"load": load, RELATIVE_LOAD: load / unit, "lag": lag, "lead": -lag,
                 "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
-                "saturation": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
-                "wrist_saturation": jnp.max(jnp.abs(a[:NUM_VIRTUAL])), "penetration": k.penetration,
+                "saturation": jnp.max(jnp.where(self.active, jnp.abs(own), 0.0)),
+                "wrist_saturation": jnp.max(jnp.abs(own[:NUM_VIRTUAL])), "penetration": k.penetration,
                 "action_change": jnp.where(ev.step > 1, jnp.mean(jnp.abs(a - a_prev)), 0.0)}
 
-    def _reward(self, state: State, a: jnp.ndarray, k: Kinematics, ev: Events, finite: jnp.ndarray, costs):
+    def _reward(self, state: State, a, own, k: Kinematics, ev: Events, finite: jnp.ndarray, costs):
         """r_t (paper eq. totalreward, with the constraints' term, ARAM or Reconfig when configured), its terms
-        (``rewards.term_names``, zero in a non-finite world) and the reward stage's new state. ``costs``: each
-        constraint's c_t, in the config's order."""
+        (zero in a non-finite world), the reward stage's new state; ``costs``: c_t per constraint; ``own``: PICA's."""
         c, p, info = self.config, self.params, state.info
-        terms = reward_terms(c.reward, a, ev.d, ev.q - info["q_prev"], ev.success.astype(jnp.float32),
+        terms = reward_terms(c.reward, own, ev.d, ev.q - info["q_prev"], ev.success.astype(jnp.float32),
                              ev.detach.astype(jnp.float32), k.force[:3])
         if c.reward.constraints:
             terms["constraints"] = -jnp.dot(p.multipliers, costs) - ended_early_charge(
@@ -460,16 +458,19 @@ class PullTask:
         terms = {t: jnp.where(finite, v, 0.0).astype(jnp.float32) for t, v in terms.items()}
         return reward, terms, {"d_long": d_long, "q_long": q_long, "stall": stall, "cooldown": cooldown}
 
-    def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray, palm_before: jnp.ndarray) -> State:
-        c, info = self.config, state.info
+    def _advance(self, state: State, ctrl: jnp.ndarray, a: jnp.ndarray, palm_before: jnp.ndarray,
+                 own: jnp.ndarray | None = None) -> State:
+        """The step to PD target ``ctrl``; ``own``: what PICA's action terms and saturations read (else ``a``)."""
+        c, info, own = self.config, state.info, a if own is None else own
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
         measures = self._measures(palm_before, k, a, applied_action(state.obs, self.action_size), ev,
-                                  load_unit(self.params.expert_load[info["start"]], info["scales"][randomize.DAMPING]))
+                                  load_unit(self.params.expert_load[info["start"]], info["scales"][randomize.DAMPING]),
+                                  own)
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure], info["passed"][i]), 0.0)
                              for i, x in enumerate(c.reward.constraints)], jnp.float32)
-        reward, terms, reward_state = self._reward(state, a, k, ev, finite, costs)
+        reward, terms, reward_state = self._reward(state, a, own, k, ev, finite, costs)
         # observation
         ring = lambda r, x: jnp.concatenate([r[1:], jnp.asarray(x, r.dtype)[None]])  # noqa: E731
         e = (ctrl - k.hand_q).astype(jnp.float32)
@@ -487,8 +488,7 @@ class PullTask:
             "action_abs_max": jnp.max(jnp.abs(a)), "active_abs_max": jnp.max(jnp.where(self.active, jnp.abs(a), 0.0)),
             "action_l2": jnp.linalg.norm(a), "palm_dist": ev.d.astype(jnp.float32), "reward": reward,
             "nonfinite": (~finite).astype(jnp.float32), "overflow": overflow.astype(jnp.float32),
-            "episode_return": ep_return,
-            "episode_length": ev.step.astype(jnp.float32), "q": ev.q,
+            "episode_return": ep_return, "episode_length": ev.step.astype(jnp.float32), "q": ev.q,
         } | {cost_metric(x): costs[i] for i, x in enumerate(c.reward.constraints)} | {
             TERM_PREFIX + t: v for t, v in terms.items()}
         return State(physics=ps, obs=obs, reward=reward, done=ev.terminated | ev.truncated, terminated=ev.terminated,

@@ -172,6 +172,37 @@ def test_a_yielding_prior_waits_for_a_part_that_lags_and_follows_one_that_keeps_
     assert pull_near < 0.5 * pull_timed
 
 
+def test_a_residual_on_the_target_replays_the_drag_as_pd_targets_and_is_charged_only_for_its_own_output(door):
+    """residual_on "target": zeros put the hand's PD target on the drag's (the tracking baseline, frame for frame),
+    where the residual on the action cuts it to alpha from the hand; at x200 damping the hand lags, the applied action
+    saturates and the wrist's target leads the hand further (its pull), while PICA's bound term reads the policy's zeros (the action residual's,
+    the saturated sum)."""
+    on_action = PullTask(door.scene, door.traj, dataclasses.replace(door.config, expert_prior=True))
+    on_target = PullTask(door.scene, door.traj, dataclasses.replace(on_action.config, residual_on="target"))
+    drag = on_target.params.drag
+
+    def run(task, damping, targets=False):
+        s = task.reset(jax.random.PRNGKey(0), jnp.float32(damping))
+
+        def body(s, _):
+            s = task.step_target(s, drag[s.info["step"]]) if targets else task.step(s, jnp.zeros(51))
+            return s, (s.metrics["q"], s.info["ctrl"], jnp.abs(applied_action(s.obs, 51)).max(),
+                       s.metrics["reward/bound"], jnp.linalg.norm(s.info["ctrl"][:3] - task.kinematics(s).hand_q[:3]))
+        return jax.lax.scan(body, s, None, length=90)[1]
+
+    (q_t, ctrl_t, _, _, _), (q_pd, _, _, _, _), (_, _, sat_t, bound_t, pull_t), (_, _, sat_a, bound_a, pull_a) = \
+        jax.device_get(jax.jit(lambda: (run(on_target, 1.0), run(on_target, 1.0, True), run(on_target, 200.0),
+                                        run(on_action, 200.0)))())
+    lo, hi = np.asarray(on_target.params.hand_lo), np.asarray(on_target.params.hand_hi)
+    np.testing.assert_allclose(ctrl_t, np.clip(np.asarray(drag)[:90], lo, hi), atol=1e-6)
+    np.testing.assert_array_equal(q_t, q_pd)
+    assert sat_t[60:].max() > 0.99 and sat_a[60:].max() > 0.99  # the hand lags its target by more than alpha
+    assert np.all(bound_t == 0.0) and bound_a.min() < 0.0
+    assert pull_t[60:].mean() > 1.5 * pull_a[60:].mean()
+    with pytest.raises(DragMeshError, match="residual_on"):
+        TaskConfig(residual_on="target")
+
+
 def test_on_the_hands_contacts_the_recipes_grip_holds_the_packaged_drawers_bar_within_2_mm():
     """The expert grasp the recipe's structure holds with (seated, ranked by the load it holds), its drag replayed at
     x1 and x8 from the exact grasp: on the hand's contacts (the firm grip's scene) the deepest hand-object contact
