@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 
 DAMPINGS = (1.0, 2.0, 4.0, 8.0)
+#: The palm's figure once the start has settled (evaluations made before it have none: "-").
+SETTLED = "palm_speed_settled_peak_m_s"
 
 
 def _cells(f: Path) -> dict[float, dict]:
@@ -24,13 +26,14 @@ def _cells(f: Path) -> dict[float, dict]:
 
 def runs(folder: str) -> None:
     print("| run | " + " | ".join(f"x{d:g}" for d in DAMPINGS) + " | x1 load p95 [N] | x8 load | palm x1 -> x8 [m/s] "
-          "| penetration max [mm] | clip099 active | policy's own |")
-    print("|---" * (7 + len(DAMPINGS)) + "|")
+          "| settled | penetration max [mm] | clip099 active | policy's own |")
+    print("|---" * (8 + len(DAMPINGS)) + "|")
     for f in sorted(Path(folder).glob("*.eval.json")):
         c = _cells(f)
+        settled = "-" if SETTLED not in c[1.0] else f"{c[1.0][SETTLED]:.2f} -> {c[8.0][SETTLED]:.2f}"
         print(f"| {f.name.removesuffix('.eval.json')} | " + " | ".join(f"{c[d]['success_rate']:.2f}" for d in DAMPINGS)
               + f" | {c[1.0]['wrist_load_peak_n']:.0f} | {c[8.0]['wrist_load_peak_n']:.0f} | "
-              f"{c[1.0]['palm_speed_peak_m_s']:.2f} -> {c[8.0]['palm_speed_peak_m_s']:.2f} | "
+              f"{c[1.0]['palm_speed_peak_m_s']:.2f} -> {c[8.0]['palm_speed_peak_m_s']:.2f} | {settled} | "
               f"{max(cell['penetration_max_mm'] for cell in c.values()):.1f} | {c[1.0]['clip099_active']:.2f} | "
               f"{c[1.0]['clip099_policy_active']:.2f} |")
 

@@ -143,6 +143,7 @@ def envelope_figure(rows: list[dict], path: str | Path, title: str = "") -> Path
 PHYSICAL = (
     ("wrist_load_peak_n", "wrist load p95 [N]", "{:.0f}"),
     ("palm_speed_peak_m_s", "palm speed p95 [m/s]", "{:.2f}"),
+    ("palm_speed_settled_peak_m_s", "settled [m/s]", "{:.2f}"),
     ("part_speed_peak", "part speed p95 [/s]", "{:.2f}"),
     ("penetration_max_mm", "penetration max [mm]", "{:.1f}"),
     ("action_smoothness", "mean abs action change", "{:.3f}"),

@@ -29,7 +29,11 @@ from dragmesh2_jax.task.env import PullTask, TaskData, applied_action
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
 ACCUMULATED = ("steps", "clip", "clip_active", "clip_policy", "l2", "success", "detach", "progress", "ret", "overflow",
-               "load_peak", "palm_speed_peak", "part_speed_peak", "penetration_max", "change")
+               "load_peak", "palm_speed_peak", "palm_speed_settled_peak", "part_speed_peak", "penetration_max",
+               "change")
+#: Control steps a start takes to settle: a perturbed start's hand reaches its grasp in its first 4-5 steps, and
+#: faster where the part resists (RESULTS.md §6b); the settled palm figure leaves them out.
+START_STEPS = 5
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,8 +81,10 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
         a = applied_action(state.obs, task.action_size)
         dt = task.config.control_dt
 
-        def peak(name, value):
-            return jnp.where(live, jnp.maximum(acc[name], value), acc[name])
+        palm_speed = jnp.linalg.norm(after.palm - before.palm, axis=-1) / dt
+
+        def peak(name, value, when=True):
+            return jnp.where(live & when, jnp.maximum(acc[name], value), acc[name])
 
         acc = {
             "steps": acc["steps"] + live, "l2": acc["l2"] + live * m["action_l2"],
@@ -90,7 +96,8 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
             > CLIP_LEVEL),
             "overflow": acc["overflow"] + live * m["overflow"],
             "load_peak": peak("load_peak", jnp.linalg.norm(before.force[:, :3], axis=-1)),
-            "palm_speed_peak": peak("palm_speed_peak", jnp.linalg.norm(after.palm - before.palm, axis=-1) / dt),
+            "palm_speed_peak": peak("palm_speed_peak", palm_speed),
+            "palm_speed_settled_peak": peak("palm_speed_settled_peak", palm_speed, acc["steps"] >= START_STEPS),
             "part_speed_peak": peak("part_speed_peak", jnp.abs(after.obj_q - before.obj_q) / dt),
             "penetration_max": peak("penetration_max", after.penetration),
             "change": acc["change"] + live * (acc["steps"] > 0) * jnp.mean(jnp.abs(a - prev), axis=-1),
@@ -157,8 +164,9 @@ def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
     interval, progress_mean (final progress), return_mean, steps_mean (episode length), clip099 over every action
     channel and clip099_active over the DoFs that move (the applied action), clip099_policy_active the same of the
     policy's own output (a residual's before it adds to the expert's: the saturation the policy chose),
-    detach_rate, action_l2_mean; and how it was done, physically: wrist_load_peak_n, palm_speed_peak_m_s and
-    part_speed_peak (joint units per second), each the 95th percentile over the episodes of each episode's peak;
+    detach_rate, action_l2_mean; and how it was done, physically: wrist_load_peak_n, palm_speed_peak_m_s (and
+    palm_speed_settled_peak_m_s, from the step after the first START_STEPS on) and part_speed_peak (joint units per
+    second), each the 95th percentile over the episodes of each episode's peak;
     penetration_max_mm, the deepest hand-object penetration of any episode; action_smoothness, the mean
     |a_t - a_(t-1)| over channels and steps (action units)."""
     acc = result["acc"]
@@ -180,6 +188,7 @@ def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
             "action_l2_mean": float(acc["l2"][sl].sum() / total),
             "wrist_load_peak_n": float(np.percentile(acc["load_peak"][sl], PEAK_PERCENTILE)),
             "palm_speed_peak_m_s": float(np.percentile(acc["palm_speed_peak"][sl], PEAK_PERCENTILE)),
+            "palm_speed_settled_peak_m_s": float(np.percentile(acc["palm_speed_settled_peak"][sl], PEAK_PERCENTILE)),
             "part_speed_peak": float(np.percentile(acc["part_speed_peak"][sl], PEAK_PERCENTILE)),
             "penetration_max_mm": float(1000.0 * acc["penetration_max"][sl].max()),
             "action_smoothness": float(acc["change"][sl].sum() / max(float(np.maximum(steps - 1, 0).sum()), 1.0)),

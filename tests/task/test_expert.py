@@ -175,8 +175,8 @@ def test_a_yielding_prior_waits_for_a_part_that_lags_and_follows_one_that_keeps_
 def test_a_residual_on_the_target_replays_the_drag_as_pd_targets_and_is_charged_only_for_its_own_output(door):
     """residual_on "target": zeros put the hand's PD target on the drag's (the tracking baseline, frame for frame),
     where the residual on the action cuts it to alpha from the hand; at x200 damping the hand lags, the applied action
-    saturates and the wrist's target leads the hand further (its pull), while PICA's bound term reads the policy's zeros (the action residual's,
-    the saturated sum)."""
+    saturates and the wrist's target leads the hand further (its pull), while PICA's bound term reads the policy's
+    zeros (the action residual's, the saturated sum)."""
     on_action = PullTask(door.scene, door.traj, dataclasses.replace(door.config, expert_prior=True))
     on_target = PullTask(door.scene, door.traj, dataclasses.replace(on_action.config, residual_on="target"))
     drag = on_target.params.drag
