@@ -157,6 +157,10 @@ YIELDING: dict[str, Any] = {"task.prior_lead": 0.2}
 #: physics: the fingers seated 4-9 mm deep press the handle with that preload, which the stiff contacts keep on its
 #: surface (the expert replayed: x8 on 11 of 11 objects at 0.7-6.4 mm; results/screen/RULE.md, ninth lever).
 SOFT_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "mujoco"}
+#: The residual offsets the expert drag's PD target: added to its increment instead, the action bound cuts the expert's
+#: grip and pull under load (the seat's drag alone, door 111 at x8: 0.30 clipped, 0.94 as PD targets; RULE.md, twelfth
+#: and thirteenth levers).
+ON_TARGET: dict[str, Any] = {"task.residual_on": "target"}
 
 
 @dataclass(frozen=True)
@@ -310,6 +314,11 @@ METHODS = {m.name: m for m in (
            "on MuJoCo's soft contacts and held on the hand's, so the fingers press the handle with the seat's "
            "preload and stay on its surface; 150 epochs, read at its final checkpoint",
            {**SEATED_HOLDS, **SOFT_SEAT}, status="experimental", evidence="results/screen/RULE.md (ninth lever)"),
+    Method("hold_blind_residual_target", "hold_blind_residual_seat with a pace that yields and its residual "
+           "offsetting the expert drag's PD target, which the action bound no longer cuts under load: on the suite's "
+           "hardest doors its policy keeps what its expert holds at x8; 150 epochs, read at its final checkpoint",
+           {**SEATED_HOLDS, **SOFT_SEAT, **YIELDING, **ON_TARGET}, status="experimental",
+           evidence="results/screen/RULE.md (thirteenth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
