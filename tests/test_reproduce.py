@@ -21,6 +21,7 @@ from dragmesh2_jax.reproduce import (
     plan,
     reproduce,
 )
+from dragmesh2_jax.reproduce.report import physical_table
 from dragmesh2_jax.runs.presets import RECOMMENDED
 from tests.conftest import installed_command
 
@@ -201,6 +202,18 @@ def test_one_real_table_on_a_tiny_preset(tmp_path):
     assert run.trained_epochs() == 2 and run.spec().method == "pica"
     result = run.evaluation(run.checkpoint("best_robust"), c.protocol())
     assert [cell["damping"] for cell in result["cells"]] == [1.0, 2.0, 4.0, 8.0] * 2
+
+
+def test_the_physical_table_reads_an_evaluation_made_before_the_settled_palm_figure():
+    """Cells written before ``palm_speed_settled_peak_m_s`` existed keep their other figures; that column reads '-'."""
+    figures = {"wrist_load_peak_n": 50.0, "palm_speed_peak_m_s": 0.2, "part_speed_peak": 0.4,
+               "penetration_max_mm": 3.0, "action_smoothness": 0.01, "clip099_active": 0.5}
+    old = {"label": "pica", "seed": 0, "object": "a",
+           "cells": [{"damping": 1.0, "mode": "det", "success_rate": 1.0, **figures}]}
+    new = {**old, "seed": 1, "cells": [{**old["cells"][0], "palm_speed_settled_peak_m_s": 0.1}]}
+    table = physical_table([old], ["pica"], ["x/a"], (1.0,))
+    assert "| pica | x1 | 0.50 | - | 50 | 0.20 | - | 0.40 | 3.0 | 0.010 |" in table
+    assert "| 0.20 | 0.10 | 0.40 |" in physical_table([old, new], ["pica"], ["x/a"], (1.0,))
 
 
 def test_the_command(tmp_path, capsys):

@@ -95,7 +95,7 @@ def physical_table(results: list[dict], labels: list[str], objects: list[str],
                    dampings: tuple[float, ...] = PAPER_DAMPINGS) -> str:
     """How each row opened the parts: its det cells' saturation (the applied action's, and the policy's own: a
     residual's before it adds to the expert's) and physical figures (``evaluate.PHYSICAL``), the mean over objects and
-    seeds (penetration: the deepest); '-' where no evaluation has them."""
+    seeds (penetration: the deepest); '-' where no evaluation has them (an older one lacks the settled palm)."""
     names = [Path(o).name for o in objects]
     lines = ["| method | damp | clip099 active | policy's own | " + " | ".join(h for _, h, _ in PHYSICAL) + " |",
              "|---|---|---|---|" + "---|" * len(PHYSICAL)]
@@ -109,7 +109,7 @@ def physical_table(results: list[dict], labels: list[str], objects: list[str],
             pick = {k: max if k == "penetration_max_mm" else np.mean for k, _, _ in PHYSICAL}
             own = [c["clip099_policy_active"] for c in cs if "clip099_policy_active" in c]  # not in older ones
             row = [f"{np.mean([c['clip099_active'] for c in cs]):.2f}", f"{np.mean(own):.2f}" if own else "-"] + [
-                f.format(float(pick[k]([c[k] for c in cs]))) for k, _, f in PHYSICAL]
+                f.format(float(pick[k](v))) if (v := [c[k] for c in cs if k in c]) else "-" for k, _, f in PHYSICAL]
             lines.append(f"| {label} | x{d:g} | " + " | ".join(row) + " |")
     return "\n".join(lines)
 
