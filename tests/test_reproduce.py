@@ -205,14 +205,14 @@ def test_one_real_table_on_a_tiny_preset(tmp_path):
 
 
 def test_the_physical_table_reads_an_evaluation_made_before_the_settled_palm_figure():
-    """Cells written before ``palm_speed_settled_peak_m_s`` existed keep their other figures; that column reads '-'."""
+    """Cells written before the settled figures existed keep their other figures; those columns read '-'."""
     figures = {"wrist_load_peak_n": 50.0, "palm_speed_peak_m_s": 0.2, "part_speed_peak": 0.4,
                "penetration_max_mm": 3.0, "action_smoothness": 0.01, "clip099_active": 0.5}
     old = {"label": "pica", "seed": 0, "object": "a",
            "cells": [{"damping": 1.0, "mode": "det", "success_rate": 1.0, **figures}]}
     new = {**old, "seed": 1, "cells": [{**old["cells"][0], "palm_speed_settled_peak_m_s": 0.1}]}
     table = physical_table([old], ["pica"], ["x/a"], (1.0,))
-    assert "| pica | x1 | 0.50 | - | 50 | 0.20 | - | 0.40 | 3.0 | 0.010 |" in table
+    assert "| pica | x1 | 0.50 | - | 50 | 0.20 | - | 0.40 | 3.0 | - | 0.010 |" in table
     assert "| 0.20 | 0.10 | 0.40 |" in physical_table([old, new], ["pica"], ["x/a"], (1.0,))
 
 

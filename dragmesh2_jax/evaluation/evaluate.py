@@ -146,6 +146,7 @@ PHYSICAL = (
     ("palm_speed_settled_peak_m_s", "settled [m/s]", "{:.2f}"),
     ("part_speed_peak", "part speed p95 [/s]", "{:.2f}"),
     ("penetration_max_mm", "penetration max [mm]", "{:.1f}"),
+    ("penetration_settled_p95_mm", "settled p95 [mm]", "{:.1f}"),
     ("action_smoothness", "mean abs action change", "{:.3f}"),
 )
 

@@ -30,9 +30,10 @@ from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
 ACCUMULATED = ("steps", "clip", "clip_active", "clip_policy", "l2", "success", "detach", "progress", "ret", "overflow",
                "load_peak", "palm_speed_peak", "palm_speed_settled_peak", "part_speed_peak", "penetration_max",
-               "change")
-#: Control steps a start takes to settle: a perturbed start's hand reaches its grasp in its first 4-5 steps, and
-#: faster where the part resists (RESULTS.md §6b); the settled palm figure leaves them out.
+               "penetration_settled", "change")
+#: Control steps a start takes to settle: a perturbed start's hand reaches its grasp in its first 4-5 steps, faster
+#: where the part resists, and begins 3-5 mm into the handle (the median on the shared objects; RESULTS.md §6b); the
+#: settled figures leave them out.
 START_STEPS = 5
 
 
@@ -100,6 +101,7 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
             "palm_speed_settled_peak": peak("palm_speed_settled_peak", palm_speed, acc["steps"] >= START_STEPS),
             "part_speed_peak": peak("part_speed_peak", jnp.abs(after.obj_q - before.obj_q) / dt),
             "penetration_max": peak("penetration_max", after.penetration),
+            "penetration_settled": peak("penetration_settled", after.penetration, acc["steps"] >= START_STEPS),
             "change": acc["change"] + live * (acc["steps"] > 0) * jnp.mean(jnp.abs(a - prev), axis=-1),
             **{k: jnp.where(live, m[src], acc[k]) for k, src in (
                 ("success", "success"), ("detach", "detach"), ("progress", "progress"), ("ret", "episode_return"))},
@@ -166,9 +168,10 @@ def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
     policy's own output (a residual's before it adds to the expert's: the saturation the policy chose),
     detach_rate, action_l2_mean; and how it was done, physically: wrist_load_peak_n, palm_speed_peak_m_s (and
     palm_speed_settled_peak_m_s, from the step after the first START_STEPS on) and part_speed_peak (joint units per
-    second), each the 95th percentile over the episodes of each episode's peak;
-    penetration_max_mm, the deepest hand-object penetration of any episode; action_smoothness, the mean
-    |a_t - a_(t-1)| over channels and steps (action units)."""
+    second), each the 95th percentile over the episodes of each episode's peak; penetration_max_mm, the deepest
+    hand-object penetration of any episode, and penetration_settled_p95_mm, the 95th percentile over the episodes of
+    each one's deepest from the step after the first START_STEPS; action_smoothness, the mean |a_t - a_(t-1)| over
+    channels and steps (action units)."""
     acc = result["acc"]
     records = []
     for i, d in enumerate(dampings):
@@ -191,6 +194,8 @@ def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
             "palm_speed_settled_peak_m_s": float(np.percentile(acc["palm_speed_settled_peak"][sl], PEAK_PERCENTILE)),
             "part_speed_peak": float(np.percentile(acc["part_speed_peak"][sl], PEAK_PERCENTILE)),
             "penetration_max_mm": float(1000.0 * acc["penetration_max"][sl].max()),
+            "penetration_settled_p95_mm": float(1000.0 * np.percentile(acc["penetration_settled"][sl],
+                                                                       PEAK_PERCENTILE)),
             "action_smoothness": float(acc["change"][sl].sum() / max(float(np.maximum(steps - 1, 0).sum()), 1.0)),
         })
     return records
