@@ -169,7 +169,7 @@ def _ending_reward(env, t: int, costs, success: bool = False, detach: bool = Fal
     k = env.kinematics(s)
     ev = Events(d=jnp.float32(0.2), q=k.obj_q, success=jnp.bool_(success), detach=jnp.bool_(detach),
                 terminated=jnp.bool_(success or detach), truncated=jnp.bool_(False), step=jnp.int32(t))
-    return env._reward(s, jnp.zeros(51), k, ev, jnp.bool_(True), jnp.asarray(costs, jnp.float32))[:2]
+    return env._reward(s, jnp.zeros(51), jnp.zeros(51), k, ev, jnp.bool_(True), jnp.asarray(costs, jnp.float32))[:2]
 
 
 def test_a_normalized_lagrangian_charges_a_detached_episode_every_step_it_had_left():
