@@ -82,7 +82,7 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
         a = applied_action(state.obs, task.action_size)
         dt = task.config.control_dt
 
-        palm_speed = jnp.linalg.norm(after.palm - before.palm, axis=-1) / dt
+        palm_speed, settled = jnp.linalg.norm(after.palm - before.palm, axis=-1) / dt, acc["steps"] >= START_STEPS
 
         def peak(name, value, when=True):
             return jnp.where(live & when, jnp.maximum(acc[name], value), acc[name])
@@ -98,10 +98,10 @@ def _run(r: Rollout, data: TaskData, params: Any, key: jax.Array) -> dict:
             "overflow": acc["overflow"] + live * m["overflow"],
             "load_peak": peak("load_peak", jnp.linalg.norm(before.force[:, :3], axis=-1)),
             "palm_speed_peak": peak("palm_speed_peak", palm_speed),
-            "palm_speed_settled_peak": peak("palm_speed_settled_peak", palm_speed, acc["steps"] >= START_STEPS),
+            "palm_speed_settled_peak": peak("palm_speed_settled_peak", palm_speed, settled),
             "part_speed_peak": peak("part_speed_peak", jnp.abs(after.obj_q - before.obj_q) / dt),
             "penetration_max": peak("penetration_max", after.penetration),
-            "penetration_settled": peak("penetration_settled", after.penetration, acc["steps"] >= START_STEPS),
+            "penetration_settled": peak("penetration_settled", after.penetration, settled),
             "change": acc["change"] + live * (acc["steps"] > 0) * jnp.mean(jnp.abs(a - prev), axis=-1),
             **{k: jnp.where(live, m[src], acc[k]) for k, src in (
                 ("success", "success"), ("detach", "detach"), ("progress", "progress"), ("ret", "episode_return"))},

@@ -95,7 +95,7 @@ def physical_table(results: list[dict], labels: list[str], objects: list[str],
                    dampings: tuple[float, ...] = PAPER_DAMPINGS) -> str:
     """How each row opened the parts: its det cells' saturation (the applied action's, and the policy's own: a
     residual's before it adds to the expert's) and physical figures (``evaluate.PHYSICAL``), the mean over objects and
-    seeds (penetration: the deepest); '-' where no evaluation has them (an older one lacks the settled palm)."""
+    seeds (penetration: the deepest); '-' where no evaluation has them (an older one lacks the settled figures)."""
     names = [Path(o).name for o in objects]
     lines = ["| method | damp | clip099 active | policy's own | " + " | ".join(h for _, h, _ in PHYSICAL) + " |",
              "|---|---|---|---|" + "---|" * len(PHYSICAL)]

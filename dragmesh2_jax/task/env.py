@@ -382,8 +382,8 @@ class PullTask:
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state)
         if self.config.expert_prior:
-            ctrl, applied = residual_step(self.config, self.params, state.info["step"], k0.hand_q, k0.obj_q, a)
-            return self._advance(state, ctrl, applied, k0.palm, a if self.config.residual_on == "target" else None)
+            ctrl, applied, own = residual_step(self.config, self.params, state.info["step"], k0.hand_q, k0.obj_q, a)
+            return self._advance(state, ctrl, applied, k0.palm, own)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)
 

@@ -78,15 +78,16 @@ def residual_gain(config: TaskConfig) -> np.ndarray:
 
 
 def residual_step(config: TaskConfig, params, step: jnp.ndarray, hand_q: jnp.ndarray, obj_q: jnp.ndarray,
-                  a: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
-    """(the hand's PD target, the applied action) of a residual ``a`` in [-1, 1] over the expert drag at episode step
-    ``step`` (``config.residual_on``: added to the drag's increment within the bound, or offsetting its target)."""
+                  a: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray, jnp.ndarray]:
+    """(the hand's PD target, the applied action, the action PICA's terms charge) of a residual ``a`` in [-1, 1] over
+    the expert drag at episode step ``step`` (``config.residual_on``: added to the drag's increment within the bound,
+    the sum charged; or offsetting its target, the residual charged)."""
     drag, gain = params.drag[drag_step(config, step, obj_q, params)], residual_gain(config)
     if config.residual_on == "target":
         ctrl = jnp.clip(drag + config.alpha * gain * a, params.hand_lo, params.hand_hi)
-        return ctrl, jnp.clip((ctrl - hand_q) / config.alpha, -1.0, 1.0)
+        return ctrl, jnp.clip((ctrl - hand_q) / config.alpha, -1.0, 1.0), a
     applied = jnp.clip(gain * a + jnp.clip((drag - hand_q) / config.alpha, -1.0, 1.0), -1.0, 1.0)
-    return jnp.clip(hand_q + config.alpha * applied, params.hand_lo, params.hand_hi), applied
+    return jnp.clip(hand_q + config.alpha * applied, params.hand_lo, params.hand_hi), applied, applied
 
 
 def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Start, bank: list[Start],
