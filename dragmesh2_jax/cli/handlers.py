@@ -345,12 +345,14 @@ def _engine(backend: str) -> str | None:
 
 def cmd_evaluate(args) -> int:
     protocol = _protocol(args)
-    if bool(args.checkpoint) == bool(args.method):
-        raise DragMeshError("give --checkpoint (a trained run) or --method with --object (a controller), not both")
+    if not (args.checkpoint or args.method):
+        raise DragMeshError("give --checkpoint (a trained run), --method with --object (a controller), or both (the "
+                            "controller on the run's task)")
     if args.checkpoint:
         try:
             result, path = evaluate_checkpoint(args.checkpoint, protocol, _engine(args.backend), args.impl,
-                                               args.object, args.trajectory, progress=not args.quiet)
+                                               args.object, args.trajectory, progress=not args.quiet,
+                                               baseline=args.method)
         except NotSaved as e:  # computed, not saved: printed whole, then the one error line
             print(json.dumps(e.result, indent=1) if args.json else markdown_table(e.result))
             raise

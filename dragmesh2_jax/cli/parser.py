@@ -248,7 +248,8 @@ def build_parser() -> argparse.ArgumentParser:
     pev.add_argument("--method", help="a controller that needs no training, instead of --checkpoint: tracking "
                                       "(the expert drag replayed as PD targets) | tracking_delta (the same drag "
                                       "through the policies' action increments) | parallel_jaw (the GT-part-pose "
-                                      "gripper primitive)")
+                                      "gripper primitive); with --checkpoint, on the run's own task (the expert "
+                                      "in use: its trajectory, grasp and contacts), from the same starts")
     pev.add_argument("--object", help="object folder (with --method; with --checkpoint: the policy zero-shot on it)")
     pev.add_argument("--trajectory", help="trajectory file of --object (default: generate one)")
     pev.add_argument("--damping", help="damping multipliers, comma-separated (> 0; default: a run's method's "

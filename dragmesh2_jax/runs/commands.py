@@ -256,10 +256,13 @@ def finetune_run(checkpoint: str, recipe: str, out: str, backend: str | None = N
 
 def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend: str | None = None,
                         impl: str = "auto", object_dir: str | None = None,
-                        trajectory: str | None = None, progress: bool = False) -> tuple[dict, Path]:
+                        trajectory: str | None = None, progress: bool = False, baseline: str | None = None
+                        ) -> tuple[dict, Path]:
     """The protocol for a trained run's checkpoint on its own object(s), or zero-shot on ``object_dir`` (any object
     folder; its trajectory generated unless given), written into the run's evaluations (keyed by checkpoint,
-    protocol and, zero-shot, object); returns the result and its file. The run's lock is held throughout (a run
+    protocol and, zero-shot, object); returns the result and its file. ``baseline`` (``baseline_controllers``):
+    that controller instead of the policy, on the run's own task (the expert in use: its trajectory, grasp and
+    contacts), keyed by its name. The run's lock is held throughout (a run
     another process writes is refused before anything is computed); a run on read-only storage is evaluated and
     its result raised whole in :class:`NotSaved`. ``progress``: lines to standard error (``evaluate``)."""
     run, _ = RunDir.of_checkpoint(checkpoint)
@@ -269,16 +272,22 @@ def evaluate_checkpoint(checkpoint: str, protocol: EvalProtocol = PAPER, backend
                 lock.enter_context(run.writing())
         program, ts, run, ck = load_run(checkpoint, backend, impl, object_dir=object_dir, trajectory=trajectory)
         return evaluate_loaded(program, ts, run, ck, protocol, Path(object_dir).name if object_dir else None,
-                               progress)
+                               progress, baseline)
 
 
 def evaluate_loaded(program: TrainProgram, ts: TrainState, run: RunDir, ck: Path, protocol: EvalProtocol = PAPER,
-                    on: str | None = None, progress: bool = False) -> tuple[dict, Path | None]:
+                    on: str | None = None, progress: bool = False, baseline: str | None = None
+                    ) -> tuple[dict, Path | None]:
     """:func:`evaluate_checkpoint` of a run already loaded (``load_run``); ``on``: the object of a zero-shot
-    evaluation. A result that cannot be written (the storage, or another writer of the run) is raised whole
-    (:class:`NotSaved`), never lost; a packaged run's is returned unwritten (None: the package is not a place to
-    write)."""
-    result = evaluate(protocol.task(program.task), program.controller(ts), protocol, progress)
+    evaluation; ``baseline``: that controller on the run's task instead of the policy. A result that cannot be
+    written (the storage, or another writer of the run) is raised whole (:class:`NotSaved`), never lost; a packaged
+    run's is returned unwritten (None: the package is not a place to write)."""
+    if baseline:
+        task, controller = _baseline(baseline)(protocol.task(program.task))
+        ck = ck.parent / baseline  # its evaluations are named by the controller, not a checkpoint
+    else:
+        task, controller = protocol.task(program.task), program.controller(ts)
+    result = evaluate(task, controller, protocol, progress)
     result.update(checkpoint=str(ck), epoch=int(ts.epoch), run_epochs=run.trained_epochs(), zero_shot=on is not None)
     if run.packaged:
         return result, None
@@ -301,12 +310,16 @@ def baseline_controllers() -> dict:
 def evaluate_baseline(name: str, object_dir: str, trajectory: str | None, protocol: EvalProtocol = PAPER,
                       backend: str = "auto", impl: str = "auto", progress: bool = False) -> dict:
     """The protocol for a controller that needs no training (``baseline_controllers``) on an object."""
+    task, controller = _baseline(name)(protocol.task(load_task(object_dir, trajectory, backend, impl)))
+    return evaluate(task, controller, protocol, progress)
+
+
+def _baseline(name: str):
     known = baseline_controllers()
     if name not in known:
         raise DragMeshError(f"unknown controller {name!r} (choose from {', '.join(known)}; trained policies are "
                             "evaluated with --checkpoint)")
-    task, controller = known[name](protocol.task(load_task(object_dir, trajectory, backend, impl)))
-    return evaluate(task, controller, protocol, progress)
+    return known[name]
 
 
 def object_envelope(object_dir: str, trajectory: str | None, paces=ENVELOPE_PACES, dampings=ENVELOPE_DAMPINGS,

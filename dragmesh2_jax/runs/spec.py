@@ -41,10 +41,11 @@ ROBUST_EVERY = 10  # epochs between the robustness checks that select best_robus
 #: B.3-B.4; ``final`` where the run has none), or ``final``, its last epoch's.
 CheckpointRule = Literal["best_robust", "final"]
 CHECKPOINT_RULES = get_args(CheckpointRule)
-#: 5: the object's contacts and the expert's grasp (before: always MuJoCo's object contacts and the planned grasp);
+#: 6: the perturbed starts kept clear of the part (before: as drawn); 5: the object's contacts and the expert's grasp
+#: (before: always MuJoCo's object contacts and the planned grasp);
 #: 4: the schedule whole, the network's encoder and critic; 3: the network's sizes; 2: neither
-RECORD_FORMAT = 5
-READABLE_FORMATS = (2, 3, 4, 5)
+RECORD_FORMAT = 6
+READABLE_FORMATS = (2, 3, 4, 5, 6)
 RECORD_KEYS = ("method", "object", "ppo", "task")  # what every record must have
 
 
@@ -213,6 +214,9 @@ class RunSpec:
         if fmt < 5:  # made before the contacts and the grasp changed: read as made
             sections = {**sections, "scene": {"object_contact": "mujoco", **sections["scene"]},
                         "task": {"expert_grasp": "planned", **sections["task"]}}
+        if fmt < 6 and isinstance(sections["task"].get("reset_noise"), dict):  # made before starts were kept clear
+            sections = {**sections, "task": {**sections["task"],
+                                             "reset_noise": {"clear": False, **sections["task"]["reset_noise"]}}}
         return cls(method=record["method"], object=installed(record["object"]),
                    objects=tuple(installed(o["folder"]) for o in objects),
                    holdout=holdout, finetune=record.get("finetune"), parent=record.get("parent"),

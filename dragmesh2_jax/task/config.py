@@ -258,6 +258,10 @@ class ResetNoise:
     """perturbed starts"""
     seed: int = 0
     """seed of the perturbed starts' bank"""
+    clear: bool = True
+    """keep the hand out of the part: the wrist moved with a part-open start as the expert drag moves it, and a
+    perturbation that reaches into the part eased back out (``task/starts.py``); off: as drawn (records before
+    format 6)"""
 
     def __post_init__(self):
         if min(self.wrist_pos, self.wrist_rot, self.fingers, self.object_q) < 0 or self.object_q >= 1:

@@ -183,22 +183,26 @@ def test_every_cell_reports_how_the_part_was_opened_and_the_experts_load_is_the_
 
 def test_the_settled_figures_leave_out_a_perturbed_starts_first_steps():
     """The expert drag on the packaged drawer, x1 and x8: from its exact grasp the palm peaks and the fingers sink
-    deepest in the drag, so each figure equals its settled one. From perturbed starts the hand's first steps to its
-    grasp (measured: 0.16-0.18 m/s) are 1.9-2.2x the drag's own pace, and a start pressed into the handle is 1.4-1.5x
-    deeper than the grasp (12.4-12.9 mm against 8.6); the settled figures keep the drag's (0.09 m/s against the exact
-    grasp's 0.06-0.07; 8.6 mm)."""
+    deepest in the drag, so each figure equals its settled one. From starts drawn as is, the hand's first steps to
+    its grasp (measured: 0.16-0.18 m/s) are 1.9-2.2x the drag's own pace, and a start pressed into the handle is
+    1.4-1.5x deeper than the grasp (12.4-12.9 mm against 8.6); the settled figures keep the drag's (0.09 m/s against
+    the exact grasp's 0.06-0.07; 8.6 mm). Clear starts press nothing in: their deepest is the grasp's own (8.0 mm
+    measured), and the drag, starting from a hand relaxed out of the bar, sinks no deeper after its first steps
+    (5.5 mm)."""
     task = load_task(str(packaged_object("drawer_cabinet_0000")), None, backend="mujoco")
     figures = {}
-    for name, starts in (("exact", None), ("perturbed", EvalProtocol().starts)):
+    clear = EvalProtocol().starts
+    for name, starts in (("exact", None), ("drawn", dataclasses.replace(clear, clear=False)), ("clear", clear)):
         protocol = EvalProtocol(dampings=(1.0, 8.0), modes=("det",), episodes=8, starts=starts)
         figures[name] = [(c["palm_speed_peak_m_s"], c["palm_speed_settled_peak_m_s"], c["penetration_max_mm"],
                           c["penetration_settled_p95_mm"])
                          for c in evaluate(protocol.task(task), tracking_controller(task), protocol)["cells"]]
-    for exact, perturbed in zip(figures["exact"], figures["perturbed"], strict=True):
-        (palm, palm_settled, deepest, deepest_settled), (whole, settled, pressed, pressed_settled) = exact, perturbed
+    for exact, drawn, clear in zip(figures["exact"], figures["drawn"], figures["clear"], strict=True):
+        (palm, palm_settled, deepest, deepest_settled), (whole, settled, pressed, pressed_settled) = exact, drawn
         assert palm_settled == palm and whole > 1.5 * settled and settled < 1.5 * palm
         assert deepest_settled == pytest.approx(deepest) and pressed > 1.3 * pressed_settled
         assert pressed_settled == pytest.approx(deepest, abs=0.2)
+        assert clear[2] <= deepest + 0.1 and clear[3] <= deepest and clear[1] < 1.5 * palm
 
 
 def test_a_cells_peaks_are_the_95th_percentile_of_its_episodes_and_penetration_the_deepest():

@@ -3,6 +3,7 @@ every metric the epoch returns in the log, and the paper's diagnostic fine-tunes
 
 import dataclasses
 import os
+import shutil
 import struct
 import subprocess
 import sys
@@ -13,10 +14,12 @@ import numpy as np
 import pytest
 from tensorboardX.proto import event_pb2
 
-from dragmesh2_jax.evaluation.protocol import SELECTION
+from dragmesh2_jax.baselines.tracking import TRACKING
+from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.evaluation.protocol import SELECTION, EvalProtocol
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs import session
-from dragmesh2_jax.runs.commands import finetune_run, load_run
+from dragmesh2_jax.runs.commands import evaluate_baseline, evaluate_checkpoint, finetune_run, load_run
 from dragmesh2_jax.runs.presets import FINETUNES, get_finetune
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import robust_score, start_or_resume, training_success
@@ -205,3 +208,18 @@ def test_the_same_scalars_go_to_weights_and_biases_offline(tmp_path, monkeypatch
     data = log.read_bytes()
     assert all(key.encode() in data for key in ("train/success", "train/loss", "robust/mean_success"))
     assert b"dragmesh2-test" in data and b"pica" in data  # the project, and the run record as its config
+
+
+def test_a_runs_expert_is_evaluated_on_the_runs_own_task_from_the_same_starts(trained_run, tmp_path):
+    """``evaluate --checkpoint RUN --method tracking``: the expert drag the run trained over (its trajectory, grasp and
+    contacts), replayed from the protocol's starts, is the same evaluation as the controller on the run's object and
+    trajectory, written beside the policy's under the controller's name."""
+    run = shutil.copytree(trained_run.path, tmp_path / "run")
+    protocol = EvalProtocol(dampings=(1.0,), modes=("det",), episodes=2)
+    result, path = evaluate_checkpoint(str(run), protocol, "mujoco", baseline=TRACKING)
+    assert path == RunDir(run).evaluation_path(run / "checkpoints" / TRACKING, protocol)
+    alone = evaluate_baseline(TRACKING, RunDir(run).spec().object, str(run / "trajectory.json"), protocol, "mujoco")
+    for key in ("success_rate", "wrist_load_peak_n", "penetration_max_mm"):
+        assert result["cells"][0][key] == alone["cells"][0][key]
+    with pytest.raises(DragMeshError, match="unknown controller"):
+        evaluate_checkpoint(str(run), protocol, "mujoco", baseline="teleport")

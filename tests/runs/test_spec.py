@@ -325,3 +325,16 @@ def test_a_format_4_record_reads_with_the_contacts_and_the_grasp_it_was_made_wit
     seated = RunSpec.from_record({**record, "task": {**record["task"], "expert_grasp": "seated"}})
     assert seated.task.expert_grasp == "seated"
     assert RunSpec.from_record(old.record("mujoco")) == old  # written in the current format, read back whole
+
+
+def test_a_format_5_record_reads_with_the_starts_drawn_as_they_were():
+    """Runs recorded before perturbed starts were kept clear of the part trained and selected on starts as drawn:
+    they read back so; a record of the current format keeps the clear starts it was made with."""
+    record = {**RunSpec.from_record(_format_3(RECOMMENDED)).record("mujoco"), "format": 5}
+    noise = record["task"]["reset_noise"]
+    assert noise is not None and "clear" in noise
+    record["task"] = {**record["task"], "reset_noise": {k: v for k, v in noise.items() if k != "clear"}}
+    old = RunSpec.from_record(record)
+    assert old.task.reset_noise.clear is False
+    assert RunSpec.from_record(old.record("mujoco")).task.reset_noise.clear is False  # written now, read back whole
+    assert RunSpec.from_record({**record, "format": RECORD_FORMAT}).task.reset_noise.clear is True

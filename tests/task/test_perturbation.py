@@ -12,14 +12,16 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import track
 from dragmesh2_jax.evaluation.protocol import EVAL_RESET_NOISE, PAPER, EvalProtocol
 from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.scene import contact_depth
 from dragmesh2_jax.task.config import ResetNoise
 from dragmesh2_jax.task.env import PullTask, make_batched
-from dragmesh2_jax.task.starts import reset_starts
+from dragmesh2_jax.task.starts import CLEARANCE_MARGIN, reset_starts
 from tests.conftest import REAL_OBJECTS
 
 
 def test_starts_are_seeded_and_bounded(drawer_task):
-    noise = ResetNoise(bank=16, seed=3)
+    """Starts as drawn: within 2 sigma of the expert grasp, the locked axes untouched, the part only opened."""
+    noise = ResetNoise(bank=16, seed=3, clear=False)
     a = reset_starts(drawer_task.scene, drawer_task.traj, noise)
     b = reset_starts(drawer_task.scene, drawer_task.traj, noise)
     c = reset_starts(drawer_task.scene, drawer_task.traj, dataclasses.replace(noise, seed=4))
@@ -37,6 +39,23 @@ def test_starts_are_seeded_and_bounded(drawer_task):
     opened = np.array([q for _, q in a]) - q0
     t = drawer_task.traj
     assert np.all(opened >= 0) and np.all(opened <= noise.object_q * (t.q_done - t.q_start) + 1e-12)
+
+
+def test_clear_starts_lie_no_deeper_in_the_part_than_the_expert_grasp(drawer_task):
+    """Drawn as is, a start presses the hand into the drawer's bar: the bar opened into the still hand and the wrist
+    shifted into it. A clear start moves the wrist with the drawer and lets a hand in the bar relax out of it: none
+    lies deeper than the expert grasp's own contact (the margin and a tenth of a millimetre of the relaxation's
+    last step), and the perturbation stays: the starts still differ by millimetres."""
+    scene, traj = drawer_task.scene, drawer_task.traj
+    noise = ResetNoise(bank=16, seed=3)
+    clear, drawn = reset_starts(scene, traj, noise), reset_starts(scene, traj, dataclasses.replace(noise, clear=False))
+    is_hand = scene.geom_mask(scene.ids.hand_geoms)
+    depth = lambda start: contact_depth(is_hand, scene.settled_state(*start, 0))  # noqa: E731  the pose as written
+    exact = depth(reset_starts(scene, traj, None)[0])
+    assert [q for _, q in clear] == [q for _, q in drawn]  # the same draws
+    assert max(map(depth, clear)) <= exact + CLEARANCE_MARGIN + 1e-4
+    assert sum(depth(s) > exact + 0.002 for s in drawn) >= len(drawn) // 4
+    assert np.std([h[:3] for h, _ in clear], axis=0).max() > 0.001
 
 
 def test_each_reset_draws_one_of_the_perturbed_starts(drawer_task):
