@@ -169,9 +169,9 @@ def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
     detach_rate, action_l2_mean; and how it was done, physically: wrist_load_peak_n, palm_speed_peak_m_s (and
     palm_speed_settled_peak_m_s, from the step after the first START_STEPS on) and part_speed_peak (joint units per
     second), each the 95th percentile over the episodes of each episode's peak; penetration_max_mm, the deepest
-    hand-object penetration of any episode, and penetration_settled_p95_mm, the 95th percentile over the episodes of
-    each one's deepest from the step after the first START_STEPS; action_smoothness, the mean |a_t - a_(t-1)| over
-    channels and steps (action units)."""
+    hand-object penetration of any episode, penetration_p95_mm the 95th percentile over the episodes of each one's
+    deepest, and penetration_settled_p95_mm the same from the step after the first START_STEPS; action_smoothness,
+    the mean |a_t - a_(t-1)| over channels and steps (action units)."""
     acc = result["acc"]
     records = []
     for i, d in enumerate(dampings):
@@ -194,6 +194,7 @@ def cells(result: dict, dampings: list[float], episodes: int) -> list[dict]:
             "palm_speed_settled_peak_m_s": float(np.percentile(acc["palm_speed_settled_peak"][sl], PEAK_PERCENTILE)),
             "part_speed_peak": float(np.percentile(acc["part_speed_peak"][sl], PEAK_PERCENTILE)),
             "penetration_max_mm": float(1000.0 * acc["penetration_max"][sl].max()),
+            "penetration_p95_mm": float(1000.0 * np.percentile(acc["penetration_max"][sl], PEAK_PERCENTILE)),
             "penetration_settled_p95_mm": float(1000.0 * np.percentile(acc["penetration_settled"][sl],
                                                                        PEAK_PERCENTILE)),
             "action_smoothness": float(acc["change"][sl].sum() / max(float(np.maximum(steps - 1, 0).sum()), 1.0)),

@@ -221,3 +221,4 @@ def test_a_cells_peaks_are_the_95th_percentile_of_its_episodes_and_penetration_t
     assert c["palm_speed_peak_m_s"] == 1.0 and c["palm_speed_settled_peak_m_s"] == 0.5 and c["part_speed_peak"] == 2.0
     assert c["penetration_max_mm"] == pytest.approx(4.0) and c["action_smoothness"] == pytest.approx(0.1)
     assert c["penetration_settled_p95_mm"] == pytest.approx(1000 * np.percentile(np.linspace(0.0, 0.002, n), 95))
+    assert c["penetration_p95_mm"] == pytest.approx(1000 * np.percentile(acc["penetration_max"], 95))
