@@ -319,6 +319,12 @@ METHODS = {m.name: m for m in (
            "hardest doors its policy keeps what its expert holds at x8; 150 epochs, read at its final checkpoint",
            {**SEATED_HOLDS, **SOFT_SEAT, **YIELDING, **ON_TARGET}, status="experimental",
            evidence="results/screen/RULE.md (thirteenth lever)"),
+    Method("hold_blind_residual_firm_target", "hold_blind_residual_firm with its residual offsetting the expert "
+           "drag's PD target: the recipe's own seat on the hand's contacts (the fingers on the handle, not pressed "
+           "into it) and a grip the residual tightens past the action bound as the load rises; 150 epochs, read at "
+           "its final checkpoint",
+           {**SEATED_HOLDS, **FIRM_GRIP, **YIELDING, **ON_TARGET}, status="experimental",
+           evidence="results/screen/RULE.md (fifteenth step)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
