@@ -181,7 +181,8 @@ def flag_args(path: str, value) -> list[str]:
         head, _, name = flag.rpartition(".")
         return [flag if value else (f"{head}.no-{name}" if head else f"--no-{name[2:]}")]
     if dataclasses.is_dataclass(value):
-        return [flag, ",".join(f"{f.name}={getattr(value, f.name)}" for f in dataclasses.fields(value))]
+        return [flag, ",".join(f"{f.name}={json.dumps(v) if isinstance(v := getattr(value, f.name), bool) else v}"
+                               for f in dataclasses.fields(value))]
     return [flag, ",".join(str(v) for v in value) if isinstance(value, tuple) else str(value)]
 
 
