@@ -71,7 +71,7 @@ def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str
 def own_trajectories(tree: RunSpec, trajectories: list[str]) -> list[str] | None:
     """The dataset's trajectories where ``tree``'s expert is planned as the dataset's generator planned it (its grasp,
     in the default scene), else None: each object's trajectory is generated under the tree's own."""
-    same = (generator_params(tree.task) == GeneratorParams()
+    same = (generator_params(tree.task) == GeneratorParams() and tree.task.expert_plan_contact != "holds"
             and plan_scene_config(tree.task, tree.scene) == SceneConfig())
     return trajectories if same else None
 

@@ -108,8 +108,11 @@ ExpertPlacement = Literal["first", "holds"]
 #: The physics the generated trajectory is planned, seated and chosen in (``expert_plan_contact``): "scene", the run's
 #: own; "mujoco", MuJoCo's default object contacts and the hand's default finger drives (``SceneConfig()``'s), the
 #: trajectory a run on those makes. Its soft contacts seat the hand 4-9 mm into the handle; run on the hand's stiff
-#: contacts, that seat is a preload that holds the part where a seat planned on them grips with 5-6 N (RESULTS.md §3).
-ExpertPlanContact = Literal["scene", "mujoco"]
+#: contacts, that seat is a preload that holds the part where a seat planned on them grips with 5-6 N (RESULTS.md §3);
+#: "holds", both, the run's own kept unless MuJoCo's, replayed on the run's physics, holds the part at a higher damping
+#: (the firm seat on a drawer, which the soft seat presses 7 mm deep; the soft seat on a door the firm one lets go of:
+#: results/screen/RULE.md, seventeenth lever).
+ExpertPlanContact = Literal["scene", "mujoco", "holds"]
 EXPERT_UNITS = get_args(ExpertUnit)
 #: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
 #: grasp and the wrist's rotation keep the policy's whole range).

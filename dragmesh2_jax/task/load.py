@@ -12,7 +12,7 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask, trajectory_joint
-from dragmesh2_jax.trajectory.generator import SEAT_DEPTH, GeneratorParams, generate
+from dragmesh2_jax.trajectory.generator import SEAT_DEPTH, GeneratorParams, generate, holds
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory
 
 
@@ -35,11 +35,26 @@ def generator_params(config: TaskConfig) -> GeneratorParams:
 
 def plan_scene_config(config: TaskConfig, scene_config: SceneConfig) -> SceneConfig:
     """The scene the task's trajectory is generated in: ``scene_config``, or under ``expert_plan_contact`` "mujoco"
-    that scene with MuJoCo's default object contacts and the hand's default finger drives."""
+    that scene with MuJoCo's default object contacts and the hand's default finger drives (under "holds", the second
+    of the two it may be generated in)."""
     if config.expert_plan_contact == "scene":
         return scene_config
     hand = replace(scene_config.hand, finger=HandConfig().finger)
     return replace(scene_config, object_contact=SceneConfig().object_contact, hand=hand)
+
+
+def generated(obj, scene, config: TaskConfig, slots: int | None = None) -> Trajectory:
+    """The task's trajectory, generated under ``config``'s grasp in ``plan_scene_config``'s scene; under
+    ``expert_plan_contact`` "holds" in both, the one planned in ``scene`` kept unless the other, replayed in
+    ``scene``, holds the part at a higher damping (``trajectory.generator.holds``)."""
+    params = generator_params(config)
+    planned_in = plan_scene_config(config, scene.config)
+    other = scene if planned_in == scene.config else build_scene(obj, planned_in, slots=slots)
+    if config.expert_plan_contact != "holds":
+        return generate(obj, params, scene=other)
+    own, soft = generate(obj, params, scene=scene), generate(obj, params, scene=other)
+    held = [holds(scene, t, params.substeps, params.hold_steps) for t in (own, soft)]
+    return soft if held[1] > held[0] else own
 
 
 def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskConfig,
@@ -53,8 +68,4 @@ def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskCo
     if traj is not None:
         obj = adopt_trajectory_target(obj, traj)
     scene = build_scene(obj, scene_config, slots=slots)
-    if traj is None:
-        planned_in = plan_scene_config(config, scene_config)
-        plan_scene = scene if planned_in == scene_config else build_scene(obj, planned_in, slots=slots)
-        traj = generate(obj, generator_params(config), scene=plan_scene)
-    return PullTask(scene, traj, config)
+    return PullTask(scene, traj if traj is not None else generated(obj, scene, config, slots), config)

@@ -339,6 +339,13 @@ def quality(scene: Scene, frames: list[Frame], stats: dict, params: GeneratorPar
             "hand_within_limits": bool(within), "reasons": reasons}
 
 
+def _drag(scene: Scene, frames: list[Frame], params: GeneratorParams) -> Trajectory:
+    """An executed placement's frames as the trajectory a task replays (its target, frame time and grip)."""
+    return Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)},
+                                             "scene": {"frame_dt": scene.config.timestep * params.substeps},
+                                             **_grip_header(frames, params)})
+
+
 def _grip_header(frames: list[Frame], params: GeneratorParams) -> dict:
     """A seated grasp's finger targets at the drag start: its fingers there closed ``grip_closure`` further (the
     header's ``grip``: a task starts its fingers there, so that a hand whose targets stay put grips); nothing for the
@@ -380,19 +387,17 @@ def generate(obj: GAPartNetObject, params: GeneratorParams = GeneratorParams(), 
     return traj
 
 
-def holds(scene: Scene, frames: list[Frame], params: GeneratorParams) -> float:
+def holds(scene: Scene, traj: Trajectory, substeps: int, hold_steps: int) -> float:
     """The highest of 1 and ``HOLD_DAMPINGS`` (in order, up to the first not reached) at which the expert drag of
-    ``frames`` takes the part past q_done within an episode: its hand targets replayed as the task's expert prior
-    holds them (within the hand's ranges, the last held to ``params.hold_steps`` control steps) from the state the task
-    resets to, at that multiple of the nominal damping."""
-    dt = scene.config.timestep * params.substeps
-    traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)},
-                                             "scene": {"frame_dt": dt}, **_grip_header(frames, params)})
-    targets = np.clip(traj.held_targets(dt, params.hold_steps), scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1])
+    ``traj`` (its frames ``substeps`` physics steps apart) takes the part past q_done within an episode: its hand
+    targets replayed as the task's expert prior holds them (within the hand's ranges, the last held to
+    ``hold_steps`` control steps) from the state the task resets to, at that multiple of the nominal damping."""
+    dt = scene.config.timestep * substeps
+    targets = np.clip(traj.held_targets(dt, hold_steps), scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1])
     held = 1.0
     for damping in HOLD_DAMPINGS:
-        if contacts.replay(scene, (traj.start_hand_q, traj.q_start), targets, params.substeps,
-                           RESET_SETTLE_SUBSTEPS, traj.q_done, damping).steps is None:
+        if contacts.replay(scene, (traj.start_hand_q, traj.q_start), targets, substeps, RESET_SETTLE_SUBSTEPS,
+                           traj.q_done, damping).steps is None:
             break
         held = damping
     return held
@@ -412,7 +417,8 @@ def _generate(obj: GAPartNetObject, params: GeneratorParams, scene: Scene) -> Tr
         holds past ``floor``); whether the search stops at it."""
         nonlocal best
         q = quality(scene, frames, stats, kind, extent)
-        held = holds(scene, frames, kind) if q["passed"] and params.placement_choice == "holds" else 1.0
+        held = holds(scene, _drag(scene, frames, kind), params.substeps, params.hold_steps) \
+            if q["passed"] and params.placement_choice == "holds" else 1.0
         attempts.append({"placement": k, "seated": kind.seat_depth is not None, **{
             x: q[x] for x in ("passed", "grip", "handle_contacts", "handle_force_n", "achieved_opening",
                               "max_penetration_m", "max_palm_distance_m")}, "holds": held})
