@@ -157,6 +157,9 @@ YIELDING: dict[str, Any] = {"task.prior_lead": 0.2}
 #: physics: the fingers seated 4-9 mm deep press the handle with that preload, which the stiff contacts keep on its
 #: surface (the expert replayed: x8 on 11 of 11 objects at 0.7-6.4 mm; results/screen/RULE.md, ninth lever).
 SOFT_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "mujoco"}
+#: The seat planned on whichever contacts hold the part: the hand's own where its drag holds as hard as the soft
+#: seat's (a drawer, which the soft seat presses 7 mm deep), MuJoCo's soft ones where only they hold (the hard doors).
+EITHER_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "holds"}
 #: The residual offsets the expert drag's PD target: added to its increment instead, the action bound cuts the expert's
 #: grip and pull under load (the seat's drag alone, door 111 at x8: 0.30 clipped, 0.94 as PD targets; RULE.md, twelfth
 #: and thirteenth levers).
@@ -325,6 +328,11 @@ METHODS = {m.name: m for m in (
            "its final checkpoint",
            {**SEATED_HOLDS, **FIRM_GRIP, **YIELDING, **ON_TARGET}, status="experimental",
            evidence="results/screen/RULE.md (fifteenth step)"),
+    Method("hold_blind_residual_target_holds", "hold_blind_residual_target whose seat is planned on the contacts "
+           "that hold the part: the hand's own on a drawer (its fingers on the bar, not pressed 7 mm into it), "
+           "MuJoCo's soft ones on the doors only they hold; 150 epochs, read at its final checkpoint",
+           {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET}, status="experimental",
+           evidence="results/screen/RULE.md (seventeenth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
