@@ -293,8 +293,7 @@ def handle_grip(scene: Scene, d: mujoco.MjData, margin: float) -> tuple[int, flo
 def start_grip(scene: Scene, frames: list[Frame], params: GeneratorParams) -> tuple[int, float]:
     """:func:`handle_grip` in the state the task resets to: the drag-start frame (a seated grasp's fingers at their
     grip: ``Trajectory.start_hand_q``), settled as a reset settles it."""
-    traj = Trajectory(tuple(frames), header={"target": {"joint_index": _target_index(scene)},
-                                             **_grip_header(frames, params)})
+    traj = _drag(scene, frames, params)
     frame = frames[traj.drag_start]
     d = scene.settled_state(traj.start_hand_q, frame.joint_positions[traj.target_index], RESET_SETTLE_SUBSTEPS)
     return handle_grip(scene, d, params.grip_margin)
