@@ -4,7 +4,10 @@
 # run's own drag, grasp and contacts) x1 and x8, det, 50 perturbed starts per cell. Seed by seed, so that a stopped
 # sweep leaves whole seeds; resumable: a stopped run resumes, a finished one is only evaluated (evaluations already
 # written are computed again).
-#   [SEEDS="0 1 2"] bash experiments/adoption.sh OUT METHOD [OBJECTS] [SHARED]   (about 7 minutes per run on 2 CPU cores)
+#   [SEEDS="0 1 2"] [EXPERT=prior] bash experiments/adoption.sh OUT METHOD [OBJECTS] [SHARED]   (about 7 minutes per run
+#   on 2 CPU cores)
+# EXPERT: the expert in use, "tracking" (the run's drag replayed as PD targets; the default) or "prior" (the residual
+# method's prior alone, its residual at zero: the drag at the prior's own steps).
 # OBJECTS: names, space-separated; "door" the tuning door, CATEGORY:SEED a suite object (synthesised into runs/suite as
 # hold_screen.sh does); default the five adoption objects "45261 45661 door 45780 11712".
 # The table: python experiments/adoption_table.py OUT/*_METHOD_s*
@@ -33,7 +36,7 @@ for s in ${SEEDS:-0 1 2}; do
       dragmesh2 train --out "$run" --resume --quiet
     fi
     dragmesh2 evaluate --checkpoint "$run/checkpoints/final" --episodes 50 --mode det --backend mujoco --quiet > /dev/null
-    dragmesh2 evaluate --checkpoint "$run/checkpoints/final" --method tracking --damping 1,8 --episodes 50 --mode det \
+    dragmesh2 evaluate --checkpoint "$run/checkpoints/final" --method "${EXPERT:-tracking}" --damping 1,8 --episodes 50 --mode det \
       --backend mujoco --quiet > /dev/null
   done
 done

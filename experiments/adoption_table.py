@@ -4,10 +4,12 @@ its seeds' runs, the policy against the expert in use from the same starts, and 
 Each run folder holds two evaluations under the default perturbed starts, det, 50 episodes per cell:
 ``dragmesh2 evaluate --checkpoint RUN --episodes 50 --mode det`` (the policy, x1-x16) and ``dragmesh2 evaluate
 --checkpoint RUN --method tracking --damping 1,8 --episodes 50 --mode det`` (its expert: the same drag, grasp and
-contacts replayed as PD targets from the same starts).
+contacts replayed as PD targets from the same starts; or ``--method prior``, the residual method's prior alone,
+which a run's ``prior`` evaluation stands for where it has one).
 
-    python experiments/adoption_table.py RUN [RUN ...]   (runs named OBJECT_METHOD_sSEED, as relative_load.sh names
-        them; a run without both evaluations is listed as missing)
+    python experiments/adoption_table.py [--unseated] RUN [RUN ...]   (runs named OBJECT_METHOD_sSEED, as
+        relative_load.sh names them; a run without both evaluations is listed as missing; --unseated: evaluations
+        from starts kept clear around the grasp as written, those made before starts were seated)
 
 The clauses, per object (means over seeds unless said):
   success  det success >= 0.95 at x1, x2, x4 and x8 with every seed
@@ -22,6 +24,7 @@ The clauses, per object (means over seeds unless said):
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import re
 import sys
@@ -34,6 +37,8 @@ from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
 
 POLICY = EvalProtocol(dampings=RECIPE_DAMPINGS, modes=("det",), episodes=50)
 EXPERT = EvalProtocol(dampings=(1.0, 8.0), modes=("det",), episodes=50)
+#: The expert in use, by its evaluation's name: the prior alone where a run has it, else the drag replayed.
+EXPERTS = ("prior", "tracking")
 SUCCESS, LOAD, PALM_RISE, PALM_EXPERT, PENETRATION_MM, OWN = 0.95, 1.2, 1.1, 2.0, 2.0, 0.3
 
 
@@ -43,9 +48,19 @@ def cells(path: Path) -> dict[float, dict] | None:
     return {c["damping"]: c for c in json.loads(path.read_text())["cells"] if c["mode"] == "det"}
 
 
-def row(obj: str, runs: list[Path]) -> list[str]:
-    pol = [cells(r / "evaluations" / f"final__{POLICY.name}.json") for r in runs]
-    exp = [cells(r / "evaluations" / f"tracking__{EXPERT.name}.json") for r in runs]
+def unseated(protocol: EvalProtocol) -> EvalProtocol:
+    """``protocol`` from starts kept clear around the grasp as written (its files' names from before seating)."""
+    return dataclasses.replace(protocol, starts=dataclasses.replace(protocol.starts, seat=False))
+
+
+def expert_cells(run: Path, protocol: EvalProtocol) -> dict[float, dict] | None:
+    found = (cells(run / "evaluations" / f"{name}__{protocol.name}.json") for name in EXPERTS)
+    return next((c for c in found if c is not None), None)
+
+
+def row(obj: str, runs: list[Path], policy: EvalProtocol = POLICY, expert: EvalProtocol = EXPERT) -> list[str]:
+    pol = [cells(r / "evaluations" / f"final__{policy.name}.json") for r in runs]
+    exp = [expert_cells(r, expert) for r in runs]
     if any(c is None for c in pol + exp):
         return [obj, f"missing evaluations ({sum(c is None for c in pol + exp)} of {2 * len(runs)})"]
     mean = lambda cs, d, k: float(np.mean([c[d][k] for c in cs]))  # noqa: E731
@@ -77,20 +92,22 @@ def row(obj: str, runs: list[Path]) -> list[str]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", type=Path)
+    ap.add_argument("--unseated", action="store_true", help="evaluations made before starts were seated")
     a = ap.parse_args(argv)
-    by_object: dict[str, list[Path]] = {}
+    by_object: dict[tuple[str, str], list[Path]] = {}  # a method's seeds on an object
     for run in sorted(a.runs):
-        m = re.fullmatch(r"(.+?)_[a-z_]+_s\d+", run.name)
+        m = re.fullmatch(r"((.+?)_[a-z_]+)_s\d+", run.name)
         if not m:
             print(f"error: {run}: not named OBJECT_METHOD_sSEED", file=sys.stderr)
             return 2
-        by_object.setdefault(m.group(1), []).append(run)
+        by_object.setdefault((m.group(2), m.group(1)), []).append(run)
+    protocols = (unseated(POLICY), unseated(EXPERT)) if a.unseated else (POLICY, EXPERT)
     print("| object | seeds | det success x1 / x2 / x4 / x8 / x16 (lowest seed) | x1 load p95 [N] (expert; ratio) | "
           "settled palm p95 x1 / x4 / x8 [m/s] (expert x1; whole) | penetration p95 x1-x8 [mm] (expert x1; "
           "settled, deepest) | own sat. x1 | clauses missed |")
     print("|---|---|---|---|---|---|---|---|")
-    for obj, runs in by_object.items():
-        print("| " + " | ".join(row(obj, runs)) + " |")
+    for (obj, _), runs in by_object.items():
+        print("| " + " | ".join(row(obj, runs, *protocols)) + " |")
     return 0
 
 

@@ -105,6 +105,7 @@ BAD_INPUT = [
     ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "-1"],
     ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "inf"],
     ["evaluate", "--method", "teleport", "--object", "{obj}"],
+    ["evaluate", "--method", "prior", "--object", "{obj}"],  # an object's task has no expert prior
     ["evaluate", "--object", "{obj}"],  # neither a run nor a controller
     ["video", "--checkpoint", "{tmp}/none"],
     ["bench", "soak", "--damping=1,-2"],

@@ -248,8 +248,10 @@ def build_parser() -> argparse.ArgumentParser:
     pev.add_argument("--method", help="a controller that needs no training, instead of --checkpoint: tracking "
                                       "(the expert drag replayed as PD targets) | tracking_delta (the same drag "
                                       "through the policies' action increments) | parallel_jaw (the GT-part-pose "
-                                      "gripper primitive); with --checkpoint, on the run's own task (the expert "
-                                      "in use: its trajectory, grasp and contacts), from the same starts")
+                                      "gripper primitive) | prior (with --checkpoint of a residual method's run: "
+                                      "its expert prior alone, the residual at zero); with --checkpoint, on the "
+                                      "run's own task (the expert in use: its trajectory, grasp and contacts), from "
+                                      "the same starts")
     pev.add_argument("--object", help="object folder (with --method; with --checkpoint: the policy zero-shot on it)")
     pev.add_argument("--trajectory", help="trajectory file of --object (default: generate one)")
     pev.add_argument("--damping", help="damping multipliers, comma-separated (> 0; default: a run's method's "

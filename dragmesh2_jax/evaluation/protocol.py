@@ -49,8 +49,11 @@ class EvalProtocol:
     def name(self) -> str:
         """A file-name tag that tells protocols apart: ``x1-2-4_det-stoch_n20_exact_s42``, or with perturbed
         starts ``..._distinct-<hash of the ResetNoise>_...`` (each episode of a cell its own start)."""
+        noise = {} if self.starts is None else dataclasses.asdict(self.starts)
+        if not noise.get("seat", True):
+            del noise["seat"]  # starts kept clear around the grasp as written keep the names they had before seating
         starts = "exact" if self.starts is None else "distinct-" + hashlib.sha1(
-            json.dumps(dataclasses.asdict(self.starts), sort_keys=True).encode()).hexdigest()[:6]
+            json.dumps(noise, sort_keys=True).encode()).hexdigest()[:6]
         return (f"x{'-'.join(f'{d:g}' for d in self.dampings)}_{'-'.join(self.modes)}_n{self.episodes}_{starts}"
                 f"_s{self.seed}")
 

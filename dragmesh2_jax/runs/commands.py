@@ -304,6 +304,7 @@ def baseline_controllers() -> dict:
     primitive runs its own gripper in the task's place)."""
     return {tracking.TRACKING: lambda task: (task, tracking.tracking_controller(task)),
             tracking.TRACKING_DELTA: lambda task: (task, tracking.tracking_delta_controller(task)),
+            tracking.PRIOR: lambda task: (task, tracking.prior_controller(task)),
             PARALLEL_JAW: parallel_jaw}
 
 

@@ -37,7 +37,7 @@ GENERALIST = "generalist"  # its method, and the packaged run's name (runs/rundi
 DATASET = "objects"
 OPEN_EPISODES = 10  # deterministic episodes of ``open``, each from its own perturbed start
 #: What ``open`` reports of the policy and of the expert drag side by side: how the part was opened.
-AS_A_PERSON = ("steps_mean", "wrist_load_peak_n", "palm_speed_peak_m_s", "penetration_max_mm")
+AS_A_PERSON = ("steps_mean", "wrist_load_peak_n", "palm_speed_peak_m_s", "penetration_p95_mm", "penetration_max_mm")
 
 
 def generalist_objects(out: str | Path, progress: bool = True) -> tuple[list[str], list[str], int]:
@@ -129,7 +129,8 @@ def open_object(object_dir: str, damping: float, out: str | Path, checkpoint: st
               "damping": damping, "episodes": episodes, "success_rate": cell["success_rate"],
               "successes": cell["successes"], "steps_mean": cell["steps_mean"],
               "wrist_load_peak_n": cell["wrist_load_peak_n"], "palm_speed_peak_m_s": cell["palm_speed_peak_m_s"],
-              "penetration_max_mm": cell["penetration_max_mm"], "clip099_active": cell["clip099_active"],
+              "penetration_p95_mm": cell["penetration_p95_mm"], "penetration_max_mm": cell["penetration_max_mm"],
+              "clip099_active": cell["clip099_active"],
               "clip099_policy_active": cell["clip099_policy_active"],
               "expert": {k: expert[k] for k in ("success_rate", "successes", *AS_A_PERSON)},
               "video": str(video), "renderer": used, "still": str(out / "still.png"),
@@ -145,14 +146,16 @@ def _markdown(r: dict, name: str) -> str:
         f"# {name}: the {r['method']} policy at damping x{r['damping']:g}", "",
         f"- opened in **{r['successes']} of {r['episodes']}** deterministic episodes (perturbed starts), "
         f"{r['steps_mean']:.0f} control steps on average (1/60 s each)",
-        f"- wrist load p95 {r['wrist_load_peak_n']:.0f} N, palm speed p95 {r['palm_speed_peak_m_s']:.2f} m/s, deepest "
-        f"penetration {r['penetration_max_mm']:.1f} mm, saturated active DoFs {r['clip099_active']:.2f} (the policy's "
+        f"- wrist load p95 {r['wrist_load_peak_n']:.0f} N, palm speed p95 {r['palm_speed_peak_m_s']:.2f} m/s, "
+        f"penetration p95 {r['penetration_p95_mm']:.1f} mm (each episode's deepest contact; the deepest of all "
+        f"{r['penetration_max_mm']:.1f} mm), saturated active DoFs {r['clip099_active']:.2f} (the policy's "
         f"own output: {r['clip099_policy_active']:.2f})",
         f"- checkpoint: `{r['checkpoint']}`", f"- video: `{Path(r['video']).name}` ({r['renderer']}), still: "
         "`still.png`", "", "Opened as a person would? The policy beside the expert drag (the object's own trajectory "
         "replayed open-loop from the same starts):", "",
-        "| | opened | steps | wrist load p95 | palm speed p95 | deepest penetration |", "|---|---|---|---|---|---|",
+        "| | opened | steps | wrist load p95 | palm speed p95 | penetration p95 (deepest) |",
+        "|---|---|---|---|---|---|",
         *(f"| {who} | {x['successes']}/{r['episodes']} | {x['steps_mean']:.0f} | {x['wrist_load_peak_n']:.0f} N | "
-          f"{x['palm_speed_peak_m_s']:.2f} m/s | {x['penetration_max_mm']:.1f} mm |"
+          f"{x['palm_speed_peak_m_s']:.2f} m/s | {x['penetration_p95_mm']:.1f} ({x['penetration_max_mm']:.1f}) mm |"
           for who, x in (("policy", r), ("expert", e))),
         "", f"![the last frame]({Path(r['still']).name})", ""])

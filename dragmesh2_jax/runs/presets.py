@@ -164,17 +164,26 @@ EITHER_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "holds"}
 #: grip and pull under load (the seat's drag alone, door 111 at x8: 0.30 clipped, 0.94 as PD targets; RULE.md, twelfth
 #: and thirteenth levers).
 ON_TARGET: dict[str, Any] = {"task.residual_on": "target"}
-#: The share of steps a saturated DoF is allowed in by a saturation bound (``plausible``'s on the wrist, WITHIN's).
+#: The share of steps a saturated DoF is allowed in by a saturation bound (``plausible``'s on the wrist, ``within``'s).
 SATURATION_BUDGET = 0.2
 #: The issue's bound on how deep the fingers sit in the handle (m): the deepest hand-object contact.
 PENETRATION_LIMIT = 0.002
-#: The residual's own grip held within the hand: beside the load's bound, its own output saturated (past CLIP_LEVEL on
-#: a DoF that moves) in at most SATURATION_BUDGET of the steps, and the hand deeper than PENETRATION_LIMIT in the handle
-#: in at most 5% of them; on 45261 the residual over the firm seat closed two finger joints to the bound in 29-42% of
-#: steps, and on the hard doors it pressed 0.5-1.3 mm past its expert (RULE.md, seventeenth lever).
-WITHIN: dict[str, Any] = {"task.reward.constraints": HORIZON_BOUND["task.reward.constraints"] + (
-    bounded("saturation", CLIP_LEVEL, budget=SATURATION_BUDGET), bounded("penetration", PENETRATION_LIMIT,
-                                                                          budget=0.05))}
+
+
+def within(saturation_budget: float) -> dict[str, Any]:
+    """The residual's own grip held within the hand: beside the load's bound, its own output saturated (past
+    CLIP_LEVEL on a DoF that moves) in at most ``saturation_budget`` of the steps and the hand deeper than
+    PENETRATION_LIMIT in the handle in at most 5% of them (on 45261 the residual over the firm seat closed two finger
+    joints to the bound in 29-42% of steps; RULE.md, seventeenth lever)."""
+    return {"task.reward.constraints": HORIZON_BOUND["task.reward.constraints"] + (
+        bounded("saturation", CLIP_LEVEL, budget=saturation_budget), bounded("penetration", PENETRATION_LIMIT,
+                                                                             budget=0.05))}
+
+
+#: A prior that follows the part: the drag's step never behind it (a part-open start is not pushed back to the
+#: closed part's grasp: on door 101 at x8 from seated starts the fingers' p95 depth 2.9 -> 1.5 mm; RULE.md, nineteenth
+#: lever).
+FLOOR: dict[str, Any] = {"task.prior_floor": True}
 
 
 @dataclass(frozen=True)
@@ -347,8 +356,13 @@ METHODS = {m.name: m for m in (
     Method("hold_blind_residual_target_within", "hold_blind_residual_target_holds with its own output and the "
            "hand's depth in the handle bounded: saturated in at most a fifth of the steps, deeper than 2 mm in at "
            "most 5%; 150 epochs, read at its final checkpoint",
-           {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **WITHIN}, status="experimental",
-           evidence="results/screen/RULE.md (eighteenth lever)"),
+           {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **within(SATURATION_BUDGET)},
+           status="experimental", evidence="results/screen/RULE.md (eighteenth lever)"),
+    Method("hold_blind_residual_follow", "hold_blind_residual_target_within whose prior never pulls the hand behind "
+           "the part (task.prior_floor), its own output saturated in at most a tenth of the steps; 150 epochs, read "
+           "at its final checkpoint",
+           {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **FLOOR, **within(0.1)}, status="experimental",
+           evidence="results/screen/RULE.md (nineteenth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

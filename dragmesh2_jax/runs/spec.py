@@ -41,11 +41,12 @@ ROBUST_EVERY = 10  # epochs between the robustness checks that select best_robus
 #: B.3-B.4; ``final`` where the run has none), or ``final``, its last epoch's.
 CheckpointRule = Literal["best_robust", "final"]
 CHECKPOINT_RULES = get_args(CheckpointRule)
-#: 6: the perturbed starts kept clear of the part (before: as drawn); 5: the object's contacts and the expert's grasp
+#: 7: the perturbed starts kept clear around a seated grasp (before: around the grasp as written); 6: the perturbed
+#: starts kept clear of the part (before: as drawn); 5: the object's contacts and the expert's grasp
 #: (before: always MuJoCo's object contacts and the planned grasp);
 #: 4: the schedule whole, the network's encoder and critic; 3: the network's sizes; 2: neither
-RECORD_FORMAT = 6
-READABLE_FORMATS = (2, 3, 4, 5, 6)
+RECORD_FORMAT = 7
+READABLE_FORMATS = (2, 3, 4, 5, 6, 7)
 RECORD_KEYS = ("method", "object", "ppo", "task")  # what every record must have
 
 
@@ -214,9 +215,10 @@ class RunSpec:
         if fmt < 5:  # made before the contacts and the grasp changed: read as made
             sections = {**sections, "scene": {"object_contact": "mujoco", **sections["scene"]},
                         "task": {"expert_grasp": "planned", **sections["task"]}}
-        if fmt < 6 and isinstance(sections["task"].get("reset_noise"), dict):  # made before starts were kept clear
+        if fmt < 7 and isinstance(sections["task"].get("reset_noise"), dict):  # made before starts were seated
+            made = {"clear": fmt >= 6, "seat": False}  # and before format 6, kept clear
             sections = {**sections, "task": {**sections["task"],
-                                             "reset_noise": {"clear": False, **sections["task"]["reset_noise"]}}}
+                                             "reset_noise": {**made, **sections["task"]["reset_noise"]}}}
         return cls(method=record["method"], object=installed(record["object"]),
                    objects=tuple(installed(o["folder"]) for o in objects),
                    holdout=holdout, finetune=record.get("finetune"), parent=record.get("parent"),

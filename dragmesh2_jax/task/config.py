@@ -265,12 +265,19 @@ class ResetNoise:
     """keep the hand out of the part: the wrist moved with a part-open start as the expert drag moves it, and a
     perturbation that reaches into the part eased back out (``task/starts.py``); off: as drawn (records before
     format 6)"""
+    seat: bool = True
+    """under clear: the unperturbed grasp itself eased out of the part first, to within ``starts.SEATED_DEPTH``, so
+    the perturbations are kept clear around a hand resting on the handle (a seat planned on soft contacts lies 4.7 mm
+    inside door 101's handle on the hand's contacts, which every episode's first steps read); off: around the
+    grasp as the trajectory writes it (records before format 7)"""
 
     def __post_init__(self):
         if min(self.wrist_pos, self.wrist_rot, self.fingers, self.object_q) < 0 or self.object_q >= 1:
             raise DragMeshError("reset noise magnitudes must be >= 0 (and object_q < 1)")
         if self.bank < 1:
             raise DragMeshError(f"reset noise bank must be >= 1, got {self.bank}")
+        if self.seat and not self.clear:
+            raise DragMeshError("reset noise seat needs clear (it seats the grasp perturbations are cleared around)")
 
 
 #: TaskConfig's fields that size buffers or threads: how a run is computed, not what it learns, so a resume may change
@@ -337,6 +344,11 @@ class TaskConfig:
     """beyond the paper, under expert_prior: a pace that yields, the drag's step held back to the first whose planned
     joint lies this fraction of the part's range past the part's joint now, so the hand's target waits for a part that
     lags instead of running ahead of it (results/pace/RULE.md); None: the drag at its own pace (time-indexed)"""
+    prior_floor: bool = False
+    """beyond the paper, under expert_prior: the drag's step never behind the part, at least the plan's first whose
+    planned joint reaches the part's joint now, so that a start with the part open is not pulled back to the closed
+    part's grasp (from clear starts on a hard door at x8 the time-indexed drag presses the fingers 3.5 mm into the
+    handle in its first steps, from the part's step 1.9 mm: results/screen/RULE.md, nineteenth lever)"""
     expert_load_unit: ExpertUnit = "grasp"
     """beyond the paper, the unit of the relative_load measure (EXPERT_UNITS' comment)"""
     expert_grasp: ExpertGrasp = "planned"
@@ -394,6 +406,8 @@ class TaskConfig:
                                 f"{self.residual_scale}")
         if self.prior_lead is not None and not (0 < self.prior_lead < math.inf and self.expert_prior):
             raise DragMeshError(f"prior_lead must be finite and > 0, and only with expert_prior, got {self.prior_lead}")
+        if self.prior_floor and not self.expert_prior:
+            raise DragMeshError("prior_floor only with expert_prior (it moves the expert drag's step)")
         if self.residual_on not in RESIDUAL_ONS or (self.residual_on != "action" and not self.expert_prior):
             raise DragMeshError(f"residual_on must be one of {', '.join(RESIDUAL_ONS)}, and other than action only "
                                 f"with expert_prior, got {self.residual_on!r}")

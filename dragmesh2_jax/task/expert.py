@@ -59,12 +59,15 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
 
 
 def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params) -> jnp.ndarray:
-    """The step of the expert drag whose target the prior applies at episode step ``step``: that step, or under
-    ``config.prior_lead`` at most the first whose planned joint (``params.schedule``, the task's) lies prior_lead x the
-    part's range past the part's joint ``q`` now."""
+    """The step of the expert drag whose target the prior applies at episode step ``step``: that step, under
+    ``config.prior_floor`` at least the first whose planned joint (``params.schedule``, the task's, made monotone)
+    reaches the part's joint ``q`` now, and under ``config.prior_lead`` at most the first whose planned joint lies
+    prior_lead x the part's range past it."""
+    planned = jax.lax.cummax(params.schedule)  # sorted, as searchsorted needs (a plan that holds a step stays put)
+    if config.prior_floor:
+        step = jnp.maximum(step, jnp.minimum(jnp.searchsorted(planned, q, side="left"), planned.shape[0] - 1))
     if config.prior_lead is None:
         return step
-    planned = jax.lax.cummax(params.schedule)  # sorted, as searchsorted needs (a plan that holds a step stays put)
     lead = config.prior_lead * (params.q_goal - params.q_start)
     return jnp.minimum(step, jnp.searchsorted(planned, q + lead, side="right"))
 

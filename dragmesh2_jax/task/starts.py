@@ -8,7 +8,9 @@ palm figures count as the policy's. A clear start instead moves the wrist with t
 and lets a perturbed hand that reaches into the part relax out of it: physics steps with its drives following it (no
 drive force, the part held), the contacts pushing it out, until it lies no more than ``CLEARANCE_MARGIN`` deeper than
 the unperturbed grasp at that opening, or ``RELAX_SUBSTEPS`` have passed; one still deeper has its perturbation
-halved and relaxed again."""
+halved and relaxed again. A seated start (``ResetNoise.seat``) first eases the unperturbed grasp itself out the
+same way, to within ``SEATED_DEPTH``: a grasp planned on other contacts than the run's can lie millimetres inside
+the handle, and the perturbations are then kept clear around a hand resting on it."""
 
 from __future__ import annotations
 
@@ -24,6 +26,8 @@ from dragmesh2_jax.trajectory.schema import RHO, Trajectory
 #: m: how much deeper than the unperturbed grasp a clear start's hand may lie in the part (the soft contacts' own
 #: give, so that a perturbation which only touches the handle stands as drawn).
 CLEARANCE_MARGIN = 0.0005
+#: m: how deep a seated grasp may rest in the part (the hand's contacts give about 1 mm under its drives).
+SEATED_DEPTH = 0.001
 #: The most physics steps a perturbed hand relaxes out of the part (0.4 s; on 11712 the median start of a relaxation
 #: this long lies 0.2 mm deep, of one half as long 0.8 mm).
 RELAX_SUBSTEPS = 96
@@ -46,7 +50,7 @@ def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start
     hand = scene.config.effector == "hand"
     fingers = np.flatnonzero(scene.config.active_dofs()[NUM_VIRTUAL:]) + NUM_VIRTUAL if hand else []
     trunc = lambda std, n: std * np.clip(rng.standard_normal(n), -2.0, 2.0)  # noqa: E731
-    clear = _Clearance(scene, traj, hand_q, obj_q) if noise.clear else None
+    clear = _Clearance(scene, traj, hand_q, obj_q, noise.seat) if noise.clear else None
     starts = []
     for _ in range(noise.bank):
         dq = np.zeros(len(hand_q))
@@ -60,8 +64,8 @@ def reset_starts(scene: Scene, traj: Trajectory, noise: ResetNoise | None, start
 class _Clearance:
     """Clear starts around the unperturbed one (``hand_q`` at ``obj_q``) on the C engine."""
 
-    def __init__(self, scene: Scene, traj: Trajectory, hand_q: np.ndarray, obj_q: float):
-        self.scene, self.hand_q = scene, hand_q
+    def __init__(self, scene: Scene, traj: Trajectory, hand_q: np.ndarray, obj_q: float, seat: bool):
+        self.scene, self.hand_q, self.seat = scene, hand_q, seat
         self.data = mujoco.MjData(scene.model)
         self.is_hand = scene.geom_mask(scene.ids.hand_geoms)
         end = next((b for p, a, b in traj.phase_blocks() if p == "drag" and a == traj.drag_start), traj.drag_start + 1)
@@ -71,6 +75,8 @@ class _Clearance:
 
     def __call__(self, dq: np.ndarray, obj_q: float) -> Start:
         base = self.followed(obj_q)
+        if self.seat:
+            base = self._relaxed(base, obj_q, SEATED_DEPTH)
         allowed = self._depth(base, obj_q) + CLEARANCE_MARGIN
         for s in SCALES:
             hand_q = self._relaxed(base + s * dq, obj_q, allowed)

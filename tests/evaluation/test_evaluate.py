@@ -2,6 +2,8 @@
 function as the only interface, det cells that are distributions over distinct perturbed starts."""
 
 import dataclasses
+import hashlib
+import json
 from types import SimpleNamespace
 
 import jax.numpy as jnp
@@ -117,6 +119,11 @@ def test_a_protocol_is_one_value_that_names_its_files():
     names = {p.name for p in (PAPER, dataclasses.replace(PAPER, dampings=(1.0, 8.0)), EvalProtocol(starts=None),
                               dataclasses.replace(PAPER, episodes=100), dataclasses.replace(PAPER, seed=1))}
     assert len(names) == 5 and all("/" not in n for n in names)
+    # starts kept clear around the grasp as written (before seating) keep the names their files were written under
+    unseated = dataclasses.replace(PAPER, starts=dataclasses.replace(PAPER.starts, seat=False))
+    before = {k: v for k, v in dataclasses.asdict(unseated.starts).items() if k != "seat"}
+    digest = hashlib.sha1(json.dumps(before, sort_keys=True).encode()).hexdigest()[:6]
+    assert f"_distinct-{digest}_" in unseated.name and unseated.name != PAPER.name
     for bad in ({"modes": ("greedy",)}, {"episodes": 0}, {"dampings": (-1.0,)}):
         with pytest.raises(DragMeshError):
             EvalProtocol(**bad)
@@ -192,7 +199,8 @@ def test_the_settled_figures_leave_out_a_perturbed_starts_first_steps():
     task = load_task(str(packaged_object("drawer_cabinet_0000")), None, backend="mujoco")
     figures = {}
     clear = EvalProtocol().starts
-    for name, starts in (("exact", None), ("drawn", dataclasses.replace(clear, clear=False)), ("clear", clear)):
+    drawn = dataclasses.replace(clear, clear=False, seat=False)
+    for name, starts in (("exact", None), ("drawn", drawn), ("clear", clear)):
         protocol = EvalProtocol(dampings=(1.0, 8.0), modes=("det",), episodes=8, starts=starts)
         figures[name] = [(c["palm_speed_peak_m_s"], c["palm_speed_settled_peak_m_s"], c["penetration_max_mm"],
                           c["penetration_settled_p95_mm"])

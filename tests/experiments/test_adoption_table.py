@@ -20,7 +20,7 @@ def _cell(d: float, success: float, load: float, palm: float, pen: float, own: f
             "penetration_max_mm": 3 * pen, "clip099_policy_active": own}
 
 
-def _run(root: Path, name: str, load: float, x8_palm: float, expert: bool = True) -> Path:
+def _run(root: Path, name: str, load: float, x8_palm: float, expert: bool = True, prior: float | None = None) -> Path:
     run = root / name
     (run / "evaluations").mkdir(parents=True)
     cells = [_cell(d, 1.0, load, x8_palm if d == 8.0 else 0.1, 1.0) for d in RECIPE_DAMPINGS]
@@ -28,6 +28,9 @@ def _run(root: Path, name: str, load: float, x8_palm: float, expert: bool = True
     if expert:
         cells = [_cell(d, 1.0, 40.0, 0.1, 1.5) for d in EXPERT.dampings]
         (run / "evaluations" / f"tracking__{EXPERT.name}.json").write_text(json.dumps({"cells": cells}))
+    if prior is not None:  # the residual method's prior alone: the expert in use where a run has it
+        cells = [_cell(d, 1.0, prior, 0.1, 1.5) for d in EXPERT.dampings]
+        (run / "evaluations" / f"prior__{EXPERT.name}.json").write_text(json.dumps({"cells": cells}))
     return run
 
 
@@ -36,10 +39,15 @@ def test_each_object_is_judged_against_its_own_expert_over_its_seeds(tmp_path):
     runs += [_run(tmp_path, f"door_cabinet_0000_hold_blind_residual_target_s{s}", 40.0, 0.1 + 0.1 * s)
              for s in range(2)]
     runs.append(_run(tmp_path, "11712_hold_blind_residual_target_s0", 40.0, 0.1, expert=False))
+    runs.append(_run(tmp_path, "45780_hold_blind_residual_follow_s0", 40.0, 0.1, prior=20.0))  # another method
     out = subprocess.run([sys.executable, str(SCRIPT), *map(str, runs)], capture_output=True, text=True, check=True,
                          cwd="/")
-    header, _, first, second, third = out.stdout.splitlines()
-    by_object = {line.split(" | ")[0][2:]: line for line in (first, second, third)}
+    header, _, *lines = out.stdout.splitlines()
+    follow = next(line for line in lines if "(20; 2.00x)" in line)
+    assert follow.startswith("| 45780 | 1 |") and follow.endswith("| load |")  # against its prior, not the replay
+    lines.remove(follow)
+    by_object = {line.split(" | ")[0][2:]: line for line in lines}
+    assert len(lines) == 3
     assert header.count("|") == 9
     assert "42 (40; 1.05x)" in by_object["45780"] and by_object["45780"].endswith("| all met |")
     assert "0.10 / 0.10 / 0.15" in by_object["door_cabinet_0000"]  # x8 the mean of 0.1 and 0.2: past 1.1x x1

@@ -210,6 +210,8 @@ def test_open_writes_a_report_a_video_and_a_still(packaged, tmp_path, capsys):
     expert = report["expert"]
     assert set(expert) == {"success_rate", "successes", *AS_A_PERSON} and expert["successes"] == 2  # it opens it
     assert expert["wrist_load_peak_n"] > 0 and expert["steps_mean"] > 0
+    # the penetration figure (p95 over episodes of each one's deepest contact) beside the deepest of all
+    assert all(0 <= x["penetration_p95_mm"] <= x["penetration_max_mm"] for x in (report, expert))
     assert "| policy |" in (out / "report.md").read_text() and "| expert | 2/2 |" in (out / "report.md").read_text()
     printed = capsys.readouterr().out
     assert printed.startswith("drawer_cabinet_0000 at x2: opened ") and "(the expert drag: 2/2" in printed

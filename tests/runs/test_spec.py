@@ -327,14 +327,18 @@ def test_a_format_4_record_reads_with_the_contacts_and_the_grasp_it_was_made_wit
     assert RunSpec.from_record(old.record("mujoco")) == old  # written in the current format, read back whole
 
 
-def test_a_format_5_record_reads_with_the_starts_drawn_as_they_were():
-    """Runs recorded before perturbed starts were kept clear of the part trained and selected on starts as drawn:
-    they read back so; a record of the current format keeps the clear starts it was made with."""
-    record = {**RunSpec.from_record(_format_3(RECOMMENDED)).record("mujoco"), "format": 5}
+def test_records_before_formats_6_and_7_read_with_the_starts_they_were_made_with():
+    """Runs recorded before perturbed starts were kept clear of the part (format 5) trained and selected on starts as
+    drawn, and those before the grasp was seated (format 6) on starts kept clear around the grasp as written: they read
+    back so, and keep it when written again; a record of the current format keeps its seated, clear starts."""
+    record = {**RunSpec.from_record(_format_3(RECOMMENDED)).record("mujoco")}
     noise = record["task"]["reset_noise"]
-    assert noise is not None and "clear" in noise
-    record["task"] = {**record["task"], "reset_noise": {k: v for k, v in noise.items() if k != "clear"}}
-    old = RunSpec.from_record(record)
-    assert old.task.reset_noise.clear is False
-    assert RunSpec.from_record(old.record("mujoco")).task.reset_noise.clear is False  # written now, read back whole
-    assert RunSpec.from_record({**record, "format": RECORD_FORMAT}).task.reset_noise.clear is True
+    assert noise is not None and {"clear", "seat"} <= set(noise)
+    record["task"] = {**record["task"], "reset_noise": {k: v for k, v in noise.items() if k not in ("clear", "seat")}}
+    for fmt, clear in ((5, False), (6, True)):
+        old = RunSpec.from_record({**record, "format": fmt})
+        assert (old.task.reset_noise.clear, old.task.reset_noise.seat) == (clear, False)
+        again = RunSpec.from_record(old.record("mujoco")).task.reset_noise  # written now, read back whole
+        assert (again.clear, again.seat) == (clear, False)
+    now = RunSpec.from_record({**record, "format": RECORD_FORMAT}).task.reset_noise
+    assert now.clear is True and now.seat is True

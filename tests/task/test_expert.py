@@ -152,6 +152,40 @@ def test_the_drag_step_under_a_lead_is_the_first_planned_past_the_part_and_never
             TaskConfig(**bad)
 
 
+def test_the_drag_step_under_a_floor_is_never_behind_the_part():
+    """prior_floor: the drag's step at least the first whose planned joint (made monotone) reaches the part's joint,
+    the plan's last for a part past it; the episode's step where it is later; under a lead too, at most the lead's."""
+    params = PullTask.__new__(PullTask)  # only its three fields are read
+    params.schedule, params.q_start, params.q_goal = jnp.asarray([0.0, 0.1, 0.3, 0.2, 0.5, 0.7, 0.9, 1.0]), 0.0, 2.0
+    floor = TaskConfig(expert_prior=True, prior_floor=True)
+    step = lambda config, k, q: int(drag_step(config, jnp.int32(k), jnp.float32(q), params))  # noqa: E731
+    assert step(floor, 1, 0.45) == 4  # a part opened to 0.45: the plan's first step at 0.5, not step 1's 0.1
+    assert step(floor, 6, 0.45) == 6  # later in the episode: its own step
+    assert step(floor, 0, 5.0) == 7  # past the plan's end: its last step
+    both = dataclasses.replace(floor, prior_lead=0.1)  # 0.2 in joint units
+    assert step(both, 1, 0.45) == 4 and step(both, 7, 0.0) == 2  # the floor, and the lead's hold on a lagging part
+    with pytest.raises(DragMeshError, match="prior_floor"):
+        TaskConfig(prior_floor=True)
+
+
+def test_a_prior_with_a_floor_does_not_push_a_part_open_start_back(door):
+    """From a start with the door part-open, at x8, the time-indexed drag's first targets are the closed door's
+    grasp, so its prior pushes the door back; with prior_floor the hand's target starts where the door is."""
+    noise = ResetNoise(wrist_pos=0.0, wrist_rot=0.0, fingers=0.0, object_q=0.5, bank=1, seed=3)
+    config = dataclasses.replace(door.config, expert_prior=True, residual_on="target", reset_noise=noise)
+    timed = PullTask(door.scene, door.traj, config)
+    floored = PullTask(door.scene, door.traj, dataclasses.replace(config, prior_floor=True))
+
+    def run(task):
+        s = task.reset(jax.random.PRNGKey(0), jnp.float32(8.0))
+        q0 = task.kinematics(s).obj_q
+        return jax.lax.scan(lambda s, _: (s := task.step(s, jnp.zeros(51)), s.metrics["q"] - q0), s, None,
+                            length=12)[1]
+
+    back_timed, back_floored = jax.device_get(jax.jit(lambda: (run(timed), run(floored)))())
+    assert back_timed.min() < -0.01 and back_floored.min() > -0.002, (back_timed.min(), back_floored.min())
+
+
 def test_a_yielding_prior_waits_for_a_part_that_lags_and_follows_one_that_keeps_up(door):
     """The residual's prior with prior_lead: where the part keeps up (x1, a lead it never reaches) zeros replay the
     expert's drag exactly; where it lags (x200 damping) the hand's target waits for it: the prior's pull (its applied

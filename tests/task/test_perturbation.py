@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.hand import NUM_VIRTUAL, active_dofs
+from dragmesh2_jax.assets.procedural import default_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import track
 from dragmesh2_jax.evaluation.protocol import EVAL_RESET_NOISE, PAPER, EvalProtocol
@@ -15,13 +16,13 @@ from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import contact_depth
 from dragmesh2_jax.task.config import ResetNoise
 from dragmesh2_jax.task.env import PullTask, make_batched
-from dragmesh2_jax.task.starts import CLEARANCE_MARGIN, reset_starts
+from dragmesh2_jax.task.starts import CLEARANCE_MARGIN, SEATED_DEPTH, reset_starts
 from tests.conftest import REAL_OBJECTS
 
 
 def test_starts_are_seeded_and_bounded(drawer_task):
     """Starts as drawn: within 2 sigma of the expert grasp, the locked axes untouched, the part only opened."""
-    noise = ResetNoise(bank=16, seed=3, clear=False)
+    noise = ResetNoise(bank=16, seed=3, clear=False, seat=False)
     a = reset_starts(drawer_task.scene, drawer_task.traj, noise)
     b = reset_starts(drawer_task.scene, drawer_task.traj, noise)
     c = reset_starts(drawer_task.scene, drawer_task.traj, dataclasses.replace(noise, seed=4))
@@ -48,7 +49,8 @@ def test_clear_starts_lie_no_deeper_in_the_part_than_the_expert_grasp(drawer_tas
     last step), and the perturbation stays: the starts still differ by millimetres."""
     scene, traj = drawer_task.scene, drawer_task.traj
     noise = ResetNoise(bank=16, seed=3)
-    clear, drawn = reset_starts(scene, traj, noise), reset_starts(scene, traj, dataclasses.replace(noise, clear=False))
+    drawn = reset_starts(scene, traj, dataclasses.replace(noise, clear=False, seat=False))
+    clear = reset_starts(scene, traj, noise)
     is_hand = scene.geom_mask(scene.ids.hand_geoms)
     depth = lambda start: contact_depth(is_hand, scene.settled_state(*start, 0))  # noqa: E731  the pose as written
     exact = depth(reset_starts(scene, traj, None)[0])
@@ -56,6 +58,23 @@ def test_clear_starts_lie_no_deeper_in_the_part_than_the_expert_grasp(drawer_tas
     assert max(map(depth, clear)) <= exact + CLEARANCE_MARGIN + 1e-4
     assert sum(depth(s) > exact + 0.002 for s in drawn) >= len(drawn) // 4
     assert np.std([h[:3] for h, _ in clear], axis=0).max() > 0.001
+
+
+def test_seated_starts_rest_on_the_handle_where_the_grasp_as_written_lies_inside_it():
+    """The packaged drawer's seated grasp is written 8 mm inside its bar on the hand's contacts (seated on other
+    contacts): clear starts around it lie as deep, seated ones within SEATED_DEPTH of the surface (and the margin),
+    and the perturbation stays."""
+    task = load_task(str(default_object()), None, backend="mujoco", expert_grasp="seated")
+    scene, traj = task.scene, task.traj
+    is_hand = scene.geom_mask(scene.ids.hand_geoms)
+    depth = lambda start: contact_depth(is_hand, scene.settled_state(*start, 0))  # noqa: E731  the pose as written
+    noise = ResetNoise(bank=16, seed=3)
+    seated, around = reset_starts(scene, traj, noise), reset_starts(scene, traj, dataclasses.replace(noise, seat=False))
+    assert depth(reset_starts(scene, traj, None)[0]) > 0.005 and np.median([depth(s) for s in around]) > 0.005
+    assert max(map(depth, seated)) <= SEATED_DEPTH + CLEARANCE_MARGIN + 1e-4
+    assert np.std([h[:3] for h, _ in seated], axis=0).max() > 0.001
+    with pytest.raises(DragMeshError, match="seat needs clear"):
+        ResetNoise(clear=False)
 
 
 def test_each_reset_draws_one_of_the_perturbed_starts(drawer_task):
