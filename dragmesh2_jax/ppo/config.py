@@ -44,7 +44,10 @@ class PPOConfig:
     entropy_coef: float = 0.0
     """entropy bonus (none in Table 11)"""
     bounds_coef: float = 0.01
-    """c_b, actor bounds loss at |mu| > 1.1"""
+    """c_b, actor bounds loss at |mu| > bounds_at"""
+    bounds_at: float = 1.1
+    """beyond the paper: |mu| past which the bounds loss acts (rl_games' 1.1; below the action bound 1, it keeps a
+    residual's deterministic output off its bound)"""
     smooth_coef: float = 0.0
     """beyond the paper: c_s, the action mean's temporal smoothness loss c_s mean_i (mu_t,i - mu_(t-1),i)^2 over
     consecutive steps of an episode (CAPS's temporal term, Mysore et al. 2021), mu_(t-1) the rollout's; 0: none"""
@@ -81,6 +84,8 @@ class PPOConfig:
             raise DragMeshError(f"lr must be finite and > 0, got {self.lr}")
         if not (0 <= self.gamma <= 1 and 0 <= self.gae_lambda <= 1):
             raise DragMeshError(f"gamma and gae_lambda must be in [0, 1], got {self.gamma} and {self.gae_lambda}")
+        if not 0 < self.bounds_at < math.inf:
+            raise DragMeshError(f"bounds_at must be finite and > 0, got {self.bounds_at}")
         if not 0 <= self.smooth_coef < math.inf:
             raise DragMeshError(f"smooth_coef must be finite and >= 0, got {self.smooth_coef}")
         if not 0 < self.clip_eps < math.inf:

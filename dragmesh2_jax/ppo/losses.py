@@ -1,8 +1,8 @@
 """PPO's pure pieces, Brax's ``losses.py`` manner: GAE and the loss as functions of arrays and parameters only.
 
 Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds - c_e H + w_aux L_aux, with the clipped surrogate, the
-clipped value loss in the normalised value space, rl_games' bounds loss on the action mean beyond +-1.1, and the
-auxiliary loss in z-scored target space (design §6-§7); beyond the paper, + c_s L_smooth when ``smooth_coef`` is
+clipped value loss in the normalised value space, rl_games' bounds loss on the action mean beyond +-bounds_at (1.1),
+and the auxiliary loss in z-scored target space (design §6-§7); beyond the paper, + c_s L_smooth when ``smooth_coef`` is
 set, and the surrogate over the sampled actions alone when some worlds act on the mean (``mean_share``). KL(old ||
 new) is reported as rl_games computes it.
 """
@@ -20,7 +20,6 @@ from dragmesh2_jax.policies.gla import TokenWindows
 from dragmesh2_jax.ppo.config import PPOConfig
 
 LOG2PI = float(np.log(2 * np.pi))
-BOUND = 1.1  # rl_games' bounds loss acts on |mu| beyond this
 
 
 @struct.dataclass
@@ -93,7 +92,7 @@ def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: 
         vl = 0.5 * jnp.mean(jnp.maximum((v - batch.target) ** 2, (v_clip - batch.target) ** 2))
     else:
         vl = 0.5 * jnp.mean((v - batch.target) ** 2)
-    bounds = jnp.mean(jnp.sum(jnp.maximum(mu - BOUND, 0) ** 2 + jnp.maximum(-BOUND - mu, 0) ** 2, axis=-1))
+    bounds = jnp.mean(jnp.sum(jnp.maximum(jnp.abs(mu) - c.bounds_at, 0) ** 2, axis=-1))
     entropy = jnp.sum(log_std + 0.5 * (LOG2PI + 1.0))
     aux = jnp.float32(0.0)
     if aux_head is not None:

@@ -182,3 +182,6 @@ def test_entropy_bounds_kl_and_the_weighted_total():
     assert float(info["policy_loss"]) == pytest.approx(-1.0, rel=1e-5)
     assert float(info["value_loss"]) == pytest.approx(0.5, rel=1e-5)
     assert float(total) == pytest.approx(-1.0 + 2 * 0.5 + 0.5 * 0.29 - 0.1 * LOG2PI, rel=1e-5)
+    # bounds_at 0.9 below the action bound: the same mean pays (1.6 - 0.9)^2 + (1.3 - 0.9)^2 = 0.65
+    _, info = _loss(params, batch, bounds_coef=0.5, bounds_at=0.9, clip_value=False)
+    assert float(info["bounds_loss"]) == pytest.approx(0.65, rel=1e-5)
