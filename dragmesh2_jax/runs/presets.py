@@ -164,29 +164,22 @@ EITHER_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "holds"}
 #: grip and pull under load (the seat's drag alone, door 111 at x8: 0.30 clipped, 0.94 as PD targets; RULE.md, twelfth
 #: and thirteenth levers).
 ON_TARGET: dict[str, Any] = {"task.residual_on": "target"}
-#: The share of steps a saturated DoF is allowed in by a saturation bound (``plausible``'s on the wrist, ``within``'s).
-SATURATION_BUDGET = 0.2
-#: The issue's bound on how deep the fingers sit in the handle (m): the deepest hand-object contact.
-PENETRATION_LIMIT = 0.002
+SATURATION_BUDGET = 0.2  # the share of steps a saturation bound allows (``plausible``'s on the wrist, ``within``'s)
+PENETRATION_LIMIT = 0.002  # m: the issue's bound on the deepest hand-object contact
 
 
 def within(saturation_budget: float) -> dict[str, Any]:
-    """The residual's own grip held within the hand: beside the load's bound, its own output saturated (past
-    CLIP_LEVEL on a DoF that moves) in at most ``saturation_budget`` of the steps and the hand deeper than
-    PENETRATION_LIMIT in the handle in at most 5% of them (on 45261 the residual over the firm seat closed two finger
-    joints to the bound in 29-42% of steps; RULE.md, seventeenth lever)."""
+    """Beside the load's bound, the residual's own output saturated (past CLIP_LEVEL on a DoF that moves) in at most
+    ``saturation_budget`` of the steps, the hand deeper than PENETRATION_LIMIT in at most 5% (RULE.md, lever 18)."""
     return {"task.reward.constraints": HORIZON_BOUND["task.reward.constraints"] + (
         bounded("saturation", CLIP_LEVEL, budget=saturation_budget), bounded("penetration", PENETRATION_LIMIT,
                                                                              budget=0.05))}
 
 
-#: A prior that follows the part: the drag's step never behind it (a part-open start is not pushed back to the
-#: closed part's grasp: on door 101 at x8 from seated starts the fingers' p95 depth 2.9 -> 1.5 mm; RULE.md, nineteenth
-#: lever).
+#: A prior never pushing a part-open start back (door 101 at x8: 2.9 -> 1.5 mm; RULE.md, lever 19).
 FLOOR: dict[str, Any] = {"task.prior_floor": True}
-#: The residual's action mean kept inside the bound: the bounds loss from 0.9 (rl_games' acts from 1.1, where a mean
-#: in (0.99, 1.1] saturates the deterministic policy unpaid) at 1000x its weight; on 45261 the nineteenth lever's
-#: residual held finger joints at the bound in 42% of steps with a saturation constraint's multiplier at 33.
+#: The residual's mean kept inside the bound: rl_games' bounds loss acts from 1.1, leaving a mean in (0.99, 1.1]
+#: saturated unpaid (45261, lever 19: fingers at the bound in 42% of steps; RULE.md, lever 20).
 INSIDE: dict[str, Any] = {"ppo.bounds_at": 0.9, "ppo.bounds_coef": 10.0}
 
 
@@ -347,29 +340,25 @@ METHODS = {m.name: m for m in (
            {**SEATED_HOLDS, **SOFT_SEAT, **YIELDING, **ON_TARGET}, status="experimental",
            evidence="results/screen/RULE.md (thirteenth lever)"),
     Method("hold_blind_residual_firm_target", "hold_blind_residual_firm with its residual offsetting the expert "
-           "drag's PD target: the recipe's own seat on the hand's contacts (the fingers on the handle, not pressed "
-           "into it) and a grip the residual tightens past the action bound as the load rises; 150 epochs, read at "
-           "its final checkpoint",
+           "drag's PD target (the recipe's seat on the hand's contacts, a grip the residual tightens past the action "
+           "bound); 150 epochs, read at its final checkpoint",
            {**SEATED_HOLDS, **FIRM_GRIP, **YIELDING, **ON_TARGET}, status="experimental",
            evidence="results/screen/RULE.md (fifteenth step)"),
     Method("hold_blind_residual_target_holds", "hold_blind_residual_target whose seat is planned on the contacts "
-           "that hold the part: the hand's own on a drawer (its fingers on the bar, not pressed 7 mm into it), "
-           "MuJoCo's soft ones on the doors only they hold; 150 epochs, read at its final checkpoint",
+           "that hold the part (the hand's on a drawer, MuJoCo's soft ones on the doors only they hold); 150 "
+           "epochs, read at its final checkpoint",
            {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET}, status="experimental",
            evidence="results/screen/RULE.md (seventeenth lever)"),
-    Method("hold_blind_residual_target_within", "hold_blind_residual_target_holds with its own output and the "
-           "hand's depth in the handle bounded: saturated in at most a fifth of the steps, deeper than 2 mm in at "
-           "most 5%; 150 epochs, read at its final checkpoint",
+    Method("hold_blind_residual_target_within", "hold_blind_residual_target_holds with its own saturation (a fifth "
+           "of the steps) and the hand's depth (2 mm in 5%) bounded; 150 epochs, read at its final checkpoint",
            {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **within(SATURATION_BUDGET)},
            status="experimental", evidence="results/screen/RULE.md (eighteenth lever)"),
-    Method("hold_blind_residual_follow", "hold_blind_residual_target_within whose prior never pulls the hand behind "
-           "the part (task.prior_floor), its own output saturated in at most a tenth of the steps; 150 epochs, read "
-           "at its final checkpoint",
+    Method("hold_blind_residual_follow", "hold_blind_residual_target_within, its prior never behind the part "
+           "(task.prior_floor), saturated in a tenth of the steps at most; 150 epochs, final checkpoint",
            {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **FLOOR, **within(0.1)}, status="experimental",
            evidence="results/screen/RULE.md (nineteenth lever)"),
-    Method("hold_blind_residual_follow_inside", "hold_blind_residual_follow with its action mean kept inside 0.9 of "
-           "the bound (ppo.bounds_at 0.9, bounds_coef 10), so its deterministic residual stays off the bound; 150 "
-           "epochs, read at its final checkpoint",
+    Method("hold_blind_residual_follow_inside", "hold_blind_residual_follow with its action mean kept inside 0.9 "
+           "(ppo.bounds_at 0.9, bounds_coef 10); 150 epochs, read at its final checkpoint",
            {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **FLOOR, **within(0.1), **INSIDE},
            status="experimental", evidence="results/screen/RULE.md (twentieth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
@@ -392,13 +381,11 @@ METHODS = {m.name: m for m in (
            {**HOLD, "task.reward.constraints": (Constraint(),)},
            status="superseded", evidence="results/archive.md §3"),
 )}
-#: ``plausible``'s bounds on how the part is opened: the palm no faster than PALM_SPEED_LIMIT (the expert's
-#: palm peaks at 0.09-0.19 m/s on every object), the wrist's pull within what the grasp holds
-#: (RewardConfig.f_hold) and a saturated wrist DoF in at most SATURATION_BUDGET of the steps (the fingers saturate to
-#: hold a grip, the expert's too: config.MEASURES); each a rate (the fraction of steps past its limit) whose budget
-#: dual ascent meets, in the normalised Lagrangian (``config.LAGRANGIANS``), its multiplier moving slowly enough for a
-#: policy that opens the part to learn to open it within them (from scratch, or moving 5x faster, the multipliers
-#: reached their cap before the policy could open it).
+#: ``plausible``'s bounds on how the part is opened: the palm no faster than PALM_SPEED_LIMIT (the expert's palm peaks
+#: at 0.09-0.19 m/s on every object), the wrist's pull within what the grasp holds (RewardConfig.f_hold) and a saturated
+#: wrist DoF in at most SATURATION_BUDGET of the steps (the fingers saturate to hold a grip, the expert's too:
+#: config.MEASURES); each a rate whose budget dual ascent meets, in the normalised Lagrangian, its multiplier moving
+#: slowly enough for a policy to learn to open the part within them (5x faster, they reached their cap first).
 PALM_SPEED_LIMIT = 0.25  # m/s
 PLAUSIBLE = tuple(Constraint(measure, limit, "rate", budget=budget, lr=1.0, lambda_max=20.0)
                   for measure, limit, budget in (("palm_speed", PALM_SPEED_LIMIT, 0.02),
