@@ -36,7 +36,7 @@ for s in ${SEEDS:-0 1 2}; do
       dragmesh2 train --out "$run" --resume --quiet
     fi
     dragmesh2 evaluate --checkpoint "$run/checkpoints/final" --episodes 50 --mode det --backend mujoco --quiet > /dev/null
-    dragmesh2 evaluate --checkpoint "$run/checkpoints/final" --method "${EXPERT:-tracking}" --damping 1,8 --episodes 50 --mode det \
-      --backend mujoco --quiet > /dev/null
+    dragmesh2 evaluate --checkpoint "$run/checkpoints/final" --method "${EXPERT:-tracking}" --damping 1,8 --episodes 50 \
+      --mode det --backend mujoco --quiet > /dev/null
   done
 done

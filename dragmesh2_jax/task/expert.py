@@ -63,6 +63,8 @@ def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params) -> 
     ``config.prior_floor`` at least the first whose planned joint (``params.schedule``, the task's, made monotone)
     reaches the part's joint ``q`` now, and under ``config.prior_lead`` at most the first whose planned joint lies
     prior_lead x the part's range past it."""
+    if not config.prior_floor and config.prior_lead is None:
+        return step  # time-indexed: nothing of the plan is read
     planned = jax.lax.cummax(params.schedule)  # sorted, as searchsorted needs (a plan that holds a step stays put)
     if config.prior_floor:
         step = jnp.maximum(step, jnp.minimum(jnp.searchsorted(planned, q, side="left"), planned.shape[0] - 1))
