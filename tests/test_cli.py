@@ -19,7 +19,8 @@ from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.ppo.checkpoint import is_checkpoint
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.commands import train_defaults
-from dragmesh2_jax.runs.presets import DEFAULT_METHOD, FINETUNES, METHODS, OFFERED, RECOMMENDED, STATUSES
+from dragmesh2_jax.runs.finetunes import FINETUNES
+from dragmesh2_jax.runs.presets import DEFAULT_METHOD, METHODS, OFFERED, RECOMMENDED, STATUSES
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.spec import RunSpec, method_defaults, on_objects
 from dragmesh2_jax.task.config import AramConfig, Constraint, ResetNoise

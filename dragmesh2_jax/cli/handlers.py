@@ -50,8 +50,8 @@ from dragmesh2_jax.runs.commands import (
     video_of_run,
     view_run,
 )
+from dragmesh2_jax.runs.finetunes import catalogue
 from dragmesh2_jax.runs.generalist import GENERALIST, generalist_run, open_object
-from dragmesh2_jax.runs.presets import catalogue
 from dragmesh2_jax.runs.session import training_success
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.trajectory.dataset import build_dataset

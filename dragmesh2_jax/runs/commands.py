@@ -23,7 +23,8 @@ from dragmesh2_jax.ppo.checkpoint import load_checkpoint
 from dragmesh2_jax.ppo.train import TrainProgram, TrainState, init_jit, seed_keys
 from dragmesh2_jax.render import render_policy_video, render_pose, render_trajectory_gif
 from dragmesh2_jax.runs.build import load_task, program_of
-from dragmesh2_jax.runs.presets import DEFAULT_METHOD, get_finetune
+from dragmesh2_jax.runs.finetunes import get_finetune
+from dragmesh2_jax.runs.presets import DEFAULT_METHOD
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import RESUMABLE, start_or_resume
 from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, on_objects

@@ -30,7 +30,8 @@ from dragmesh2_jax.evaluation.protocol import SELECTION
 from dragmesh2_jax.io import object_hash
 from dragmesh2_jax.policies.networks import NetworkConfig
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
-from dragmesh2_jax.runs.presets import get_finetune, get_method, resolve
+from dragmesh2_jax.runs.finetunes import get_finetune
+from dragmesh2_jax.runs.presets import get_method, resolve
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict, versions
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.config import TaskConfig, apply_overrides

@@ -20,7 +20,7 @@ from dragmesh2_jax.evaluation.protocol import SELECTION, EvalProtocol
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs import session
 from dragmesh2_jax.runs.commands import evaluate_baseline, evaluate_checkpoint, finetune_run, load_run
-from dragmesh2_jax.runs.presets import FINETUNES, get_finetune
+from dragmesh2_jax.runs.finetunes import FINETUNES, get_finetune
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import robust_score, start_or_resume, training_success
 from dragmesh2_jax.runs.spec import finetune_spec

@@ -15,7 +15,8 @@ from dragmesh2_jax.baselines.tracking import drag_targets
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs.build import load_task, program_of
-from dragmesh2_jax.runs.presets import PLAUSIBLE, RECOMMENDED
+from dragmesh2_jax.runs.finetunes import PLAUSIBLE
+from dragmesh2_jax.runs.presets import RECOMMENDED
 from dragmesh2_jax.runs.spec import finetune_spec, method_defaults
 from dragmesh2_jax.scene import FORCE_SIZE
 from dragmesh2_jax.task.config import Constraint, RewardConfig
