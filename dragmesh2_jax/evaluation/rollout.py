@@ -26,15 +26,11 @@ import numpy as np
 
 from dragmesh2_jax.policies.controller import Policy
 from dragmesh2_jax.task.env import PullTask, TaskData, applied_action
-from dragmesh2_jax.task.protocol import CLIP_LEVEL
+from dragmesh2_jax.task.protocol import CLIP_LEVEL, START_STEPS
 
 ACCUMULATED = ("steps", "clip", "clip_active", "clip_policy", "l2", "success", "detach", "progress", "ret", "overflow",
                "load_peak", "palm_speed_peak", "palm_speed_settled_peak", "part_speed_peak", "penetration_max",
                "penetration_settled", "change")
-#: Control steps a start takes to settle: a perturbed start's hand reaches its grasp in its first 4-5 steps, faster
-#: where the part resists, and begins 3-5 mm into the handle (the median on the shared objects; RESULTS.md §6b); the
-#: settled figures leave them out.
-START_STEPS = 5
 
 
 @dataclass(frozen=True, eq=False)

@@ -53,7 +53,7 @@ from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import PEAK_COSTS, ResetNoise, TaskConfig
 from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit, residual_step
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
-from dragmesh2_jax.task.protocol import METRICS, Obs, State
+from dragmesh2_jax.task.protocol import METRICS, START_STEPS, Obs, State
 from dragmesh2_jax.task.rewards import (
     TERM_PREFIX,
     aram_penalty,
@@ -424,9 +424,9 @@ class PullTask:
         load's, the expert's peak at this world's start and damping; the saturations of ``own``)."""
         p = self.params
         lag = (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start)  # one schedule entry per step
-        load = jnp.linalg.norm(k.force[:3])
-        return {"load": load, RELATIVE_LOAD: load / unit, "lag": lag, "lead": -lag,
-                "palm_speed": jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt,
+        load, palm_speed = jnp.linalg.norm(k.force[:3]), jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt
+        return {"load": load, RELATIVE_LOAD: load / unit, "lag": lag, "lead": -lag, "palm_speed": palm_speed,
+                "settled_palm_speed": jnp.where(ev.step > START_STEPS, palm_speed, 0.0),
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(own), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(own[:NUM_VIRTUAL])), "penetration": k.penetration,
                 "action_change": jnp.where(ev.step > 1, jnp.mean(jnp.abs(a - a_prev)), 0.0)}

@@ -32,6 +32,10 @@ from dragmesh2_jax.trajectory.schema import Trajectory
 
 #: A step whose largest |a_i| exceeds this counts as saturated (clip099, design §8).
 CLIP_LEVEL = 0.99
+#: Control steps a start takes to settle: a perturbed start's hand reaches its grasp in its first 4-5 steps, faster
+#: where the part resists, and begins 3-5 mm into the handle (the median on the shared objects; RESULTS.md §6b); the
+#: settled figures (the evaluation's, the ``settled_palm_speed`` measure) leave them out.
+START_STEPS = 5
 #: Metric names of every step (one scalar per world, for the step just taken).
 METRICS = ("success", "progress", "detach", "truncated", "action_abs_max", "active_abs_max", "action_l2", "palm_dist",
            "reward", "nonfinite", "overflow", "episode_return", "episode_length", "q")

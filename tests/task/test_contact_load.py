@@ -22,6 +22,7 @@ from dragmesh2_jax.scene import FORCE_SIZE
 from dragmesh2_jax.task.config import Constraint, RewardConfig
 from dragmesh2_jax.task.env import PRIVILEGED_SIZE, TOKEN_SIZE, Events, make_batched
 from dragmesh2_jax.task.observation import STATE_SIZE
+from dragmesh2_jax.task.protocol import START_STEPS
 from dragmesh2_jax.task.rewards import constraint_cost, multiplier_update, reward_terms
 from tests.conftest import tiny_spec
 
@@ -82,6 +83,24 @@ def test_each_constraint_weighs_its_steps_cost_by_the_multiplier_the_trainer_bin
     np.testing.assert_allclose(normal.reward, paid.reward / 18.0, rtol=1e-5, atol=1e-5)
     with pytest.raises(DragMeshError, match="one constraint per measure"):
         RewardConfig(constraints=(Constraint("load"), Constraint("load", 50.0)))
+
+
+def test_the_settled_palm_pace_leaves_the_starts_settling_steps_out():
+    """``settled_palm_speed`` is ``palm_speed`` from the step after the first START_STEPS on (the evaluation's settled
+    figure) and 0 before: a start's hand settling onto its grasp is not the pace the policy chose."""
+    limits = (Constraint("palm_speed", 1e-6, "rate"), Constraint("settled_palm_speed", 1e-6, "rate"))
+    task = load_task(OBJ, None, backend="mujoco", reward=RewardConfig(constraints=limits))
+
+    def run():
+        def body(s, _):
+            s = task.step(s, jnp.ones(51))
+            return s, (s.metrics["cost_palm_speed"], s.metrics["cost_settled_palm_speed"])
+
+        return jax.lax.scan(body, task.reset(jax.random.PRNGKey(0), jnp.float32(1.0)), None, length=START_STEPS + 3)[1]
+
+    pace, settled = jax.device_get(jax.jit(run)())
+    assert (pace == 1.0).all()  # the hand moves at every step
+    assert (settled[:START_STEPS] == 0.0).all() and (settled[START_STEPS:] == 1.0).all()
 
 
 def test_the_plausible_finetune_trains_the_recipe_and_each_multiplier_takes_one_dual_ascent_step_per_epoch():
