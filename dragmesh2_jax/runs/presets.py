@@ -389,6 +389,11 @@ METHODS = {m.name: m for m in (
            {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **FLOOR, **INSIDE,
             **within_and(bounded("settled_palm_speed", PALM_PACE, budget=0.01))},
            status="experimental", evidence="results/screen/RULE.md (twenty-third lever)"),
+    Method("hold_blind_residual_unhurried_log", "hold_blind_residual_unhurried with its dampings drawn log-uniform "
+           "over [1, 8] (a third of the worlds below x2, where a door can be rushed); 150 epochs, final checkpoint",
+           {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **FLOOR, **INSIDE, "task.damping_log": True,
+            **within_and(bounded("settled_palm_speed", PALM_PACE, budget=0.01))},
+           status="experimental", evidence="results/screen/RULE.md (twenty-fourth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

@@ -308,6 +308,9 @@ class TaskConfig:
     """physics steps from rest after writing the start (design §4)"""
     damping_range: tuple[float, float] = (1.0, 2.0)
     """the target joint's damping, x nominal, sampled per reset (an evaluation cell fixes its own)"""
+    damping_log: bool = False
+    """beyond the paper, draw the damping log-uniform over damping_range (as many worlds in [1, 2] as in [4, 8], as the
+    evaluation's doublings weigh them); off: uniform (the paper's), where [1, 8] puts 1 world in 14 below x1.5"""
     friction_range: tuple[float, float] | None = None
     """the object's friction scale, sampled per reset; None: off"""
     reset_noise: ResetNoise | None = None
@@ -394,6 +397,8 @@ class TaskConfig:
             raise DragMeshError(f"damping_range must satisfy 0 <= lo <= hi, got {self.damping_range}")
         if not all(math.isfinite(x) for x in self.damping_range):
             raise DragMeshError(f"damping_range must be finite, got {self.damping_range}")
+        if self.damping_log and lo <= 0:
+            raise DragMeshError(f"damping_log needs damping_range above 0, got {self.damping_range}")
         if self.friction_range is not None and not (
                 all(math.isfinite(x) for x in self.friction_range) and 0 <= self.friction_range[0]
                 <= self.friction_range[1]):

@@ -26,12 +26,13 @@ class Randomizer:
     field: str  # the MjModel field it changes
     range: Callable[[TaskConfig], tuple[float, float] | None]  # where it is drawn from (None: 1)
     apply: Callable[[jnp.ndarray, jnp.ndarray, jnp.ndarray, Layout], jnp.ndarray]  # (nominal, x, damping, layout)
+    log: Callable[[TaskConfig], bool] = lambda c: False  # drawn log-uniform over its range (else uniform)
 
 
 RANDOMIZERS = (
     # the target joint's damping: nominal x multiplier (paper §3.2.3; the reference's drand ranges)
     Randomizer("damping_scale", "dof_damping", lambda c: c.damping_range,
-               lambda f, x, damping, L: f.at[L.target_dof].set(damping * x)),
+               lambda f, x, damping, L: f.at[L.target_dof].set(damping * x), lambda c: c.damping_log),
     # the sliding friction of the object's colliding geoms (off in the paper)
     Randomizer("friction_scale", "geom_friction", lambda c: c.friction_range,
                lambda f, x, damping, L: f.at[:, 0].multiply(jnp.where(L.object_geoms, x, 1.0))),
@@ -42,11 +43,16 @@ DAMPING = RANDOMIZERS[0].name  # the multiplier an evaluation cell fixes
 
 
 def sample(key: jax.Array, config: TaskConfig) -> dict[str, jnp.ndarray]:
-    """One world's multipliers, uniform over each randomizer's range."""
+    """One world's multipliers, uniform (or log-uniform) over each randomizer's range."""
     out = {}
     for r, k in zip(RANDOMIZERS, jax.random.split(key, len(RANDOMIZERS)), strict=True):
         rng = r.range(config)
-        out[r.name] = jnp.float32(1.0) if rng is None else jax.random.uniform(k, (), minval=rng[0], maxval=rng[1])
+        if rng is None:
+            out[r.name] = jnp.float32(1.0)
+        elif r.log(config):
+            out[r.name] = jnp.exp(jax.random.uniform(k, (), minval=jnp.log(rng[0]), maxval=jnp.log(rng[1])))
+        else:
+            out[r.name] = jax.random.uniform(k, (), minval=rng[0], maxval=rng[1])
     return out
 
 

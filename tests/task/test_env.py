@@ -61,6 +61,23 @@ def test_reset_and_step_shapes_and_dtypes(drawer_task):
     np.testing.assert_allclose(s.obs.history[:, -1, 51:], 0.0)
 
 
+def test_a_log_uniform_damping_puts_as_many_worlds_in_each_doubling():
+    """``damping_log`` draws the multiplier log-uniform over [1, 8]: a third of the worlds in each of [1, 2], [2, 4] and
+    [4, 8] (uniform puts a seventh below x2); a range reaching 0 cannot be drawn so."""
+    keys = jax.random.split(jax.random.PRNGKey(0), 6000)
+
+    def draws(log):
+        config = TaskConfig(damping_range=(1.0, 8.0), damping_log=log)
+        return np.asarray(jax.vmap(lambda k: randomize.sample(k, config)[randomize.DAMPING])(keys))
+
+    log, flat = draws(True), draws(False)
+    assert log.min() >= 1.0 and log.max() <= 8.0
+    np.testing.assert_allclose([np.mean(log < 2), np.mean((log >= 2) & (log < 4)), np.mean(log >= 4)], 1 / 3, atol=0.03)
+    assert np.mean(flat < 2) == pytest.approx(1 / 7, abs=0.03)
+    with pytest.raises(DragMeshError, match="damping_log"):
+        TaskConfig(damping_range=(0.0, 8.0), damping_log=True)
+
+
 def test_expert_grasp_state_at_reset(drawer_task):
     s = drawer_task.reset(jax.random.PRNGKey(0))
     q0 = drawer_task.traj.frames[drawer_task.traj.drag_start].hand_q
