@@ -145,7 +145,7 @@ FLAG_VALUES = {
     "schedule": {"epochs": 3, "seed": 5, "save_every": 2, "robust_every": 0, "robust_episodes": 12,
                  "checkpoint": "final", "dampings": (1.0, 8.0)},
     "task": {"alpha": 0.04, "control_dt": 1 / 30, "episode_length": 200, "history_len": 8, "aux_window": 3,
-             "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0),
+             "rho": 0.6, "d_detach": 0.12, "settle_substeps": 2, "damping_range": (1.0, 3.0), "damping_log": True,
              "friction_range": (0.8, 1.2), "force_obs": True, "observation": "handle",
              "nthread": 1, "contacts": 48, "object_curriculum": 0.5, "expert_prior": True,
              "expert_load_unit": "start", "residual_scale": 0.5, "residual_scope": "translation",
