@@ -103,6 +103,11 @@ BAD_INPUT = [
     ["train", "--object", "{obj}", "--out", "{tmp}/x", "--scene.friction", "-1"],
     ["train", "--object", "{obj}", "--out", "{tmp}/x", "--scene.damping", "nan"],
     ["train", "--object", "{obj}", "--out", "{tmp}/x", "--task.object-curriculum", "0.5"],  # one object: no mix
+    # a distilled run without its teachers, and a teacher that is no run
+    ["train", "--method", "pica", "--num-envs", "2", "--object", "{obj}", "--out", "{tmp}/x",
+     "--ppo.distill-coef", "1"],
+    ["train", "--method", "pica", "--num-envs", "2", "--object", "{obj}", "--out", "{tmp}/x",
+     "--ppo.distill-coef", "1", "--teachers", "{tmp}/none"],
     ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "-1"],
     ["evaluate", "--method", "tracking", "--object", "{obj}", "--damping", "inf"],
     ["evaluate", "--method", "teleport", "--object", "{obj}"],
@@ -160,7 +165,8 @@ FLAG_VALUES = {
             "clip_value": False, "entropy_coef": 1e-3, "bounds_coef": 0.02, "bounds_at": 0.9, "aux_weight": 0.02,
             "aux_warmup": (2, 4),
             "aux_channel_weights": (1.0, 1.0, 1.0, 1.0), "max_grad_norm": 0.5, "normalize_obs": False,
-            "normalize_advantage": False, "smooth_coef": 0.5, "mean_share": 0.25},
+            "normalize_advantage": False, "smooth_coef": 0.5, "mean_share": 0.25, "distill_coef": 0.5,
+            "distill_epochs": 4},
     "network": {"encoder": "gru", "critic": "privileged", "state_sizes": (64, 64), "hist_dim": 32, "heads": 2,
                 "log_std_init": -1.5, "critic_sizes": (64,)},
 }

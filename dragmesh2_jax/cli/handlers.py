@@ -270,7 +270,7 @@ def cmd_train(args) -> int:
     if args.generalist:
         program, logs = generalist_run(args.out, seeds, args.resume, args.backend, args.impl, tree,
                                        progress=not args.quiet, wandb=args.wandb, overwrite=args.overwrite,
-                                       method=args.method)
+                                       method=args.method, teachers=args.teachers)
         _print_trained(args.out, program, logs)
         return 0
     objects, trajectory = args.object, args.trajectory
@@ -283,7 +283,7 @@ def cmd_train(args) -> int:
             objects, trajectory = objects + more, trajectory + trajs
     program, logs = train_run(args.out, objects, trajectory, args.method, tree, args.backend, args.impl, seeds,
                               args.resume, progress=not args.quiet, wandb=args.wandb, holdout=args.holdout,
-                              overwrite=args.overwrite)
+                              overwrite=args.overwrite, teachers=args.teachers)
     _print_trained(args.out, program, logs)
     return 0
 

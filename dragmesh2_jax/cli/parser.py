@@ -201,6 +201,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="of several objects, the last this many are held aside: best_robust is chosen on them "
                           "(default: 0)")
     ptr.add_argument("--trajectory", help="trajectory file (default: generate one)")
+    ptr.add_argument("--teachers", nargs="+", metavar="RUN",
+                     help="a distilled run's teachers (--ppo.distill-coef > 0, generalist_distilled): specialists, "
+                          "each a run of the student's method on one of its training objects")
     ptr.add_argument("--out", help="run folder (required)")
     ptr.add_argument("--seeds", help="several seeds as one program (e.g. 0,1,2), each in OUT/seed_N; sharded over "
                                      "the devices when they divide the count")

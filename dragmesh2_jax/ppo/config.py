@@ -56,6 +56,12 @@ class PPOConfig:
     without exploration noise: the deployed policy, on which the constraints' costs are counted (the evaluation reads
     it; the sampled actions pass a limit more often than their mean does); their steps train the critic, not the actor.
     0: every world samples and the costs are counted on them all"""
+    distill_coef: float = 0.0
+    """beyond the paper: c_d, the teachers' label loss c_d mean_i (mu_i - mu_teacher,i)^2 on the student's own steps
+    (DAgger, Ross et al. 2011: the student acts, each world's teacher, its object's specialist, labels the step with
+    its action mean); 0: none. A run with it names its teachers (``RunSpec.teachers``)"""
+    distill_epochs: int = 0
+    """c_d falls linearly to 0 over this many epochs, PPO alone after (DAgger, then PPO); 0: c_d throughout"""
     aux_weight: float = 0.01
     """w_aux after warm-up (Table 10); 0: no auxiliary loss"""
     aux_warmup: tuple[int, int] = (10, 40)
@@ -88,6 +94,11 @@ class PPOConfig:
             raise DragMeshError(f"bounds_at must be finite and > 0, got {self.bounds_at}")
         if not 0 <= self.smooth_coef < math.inf:
             raise DragMeshError(f"smooth_coef must be finite and >= 0, got {self.smooth_coef}")
+        if not (0 <= self.distill_coef < math.inf and self.distill_epochs >= 0):
+            raise DragMeshError(f"distill_coef must be finite and >= 0 and distill_epochs >= 0, got "
+                                f"{self.distill_coef} and {self.distill_epochs}")
+        if self.distill_epochs and not self.distill_coef:
+            raise DragMeshError("distill_epochs schedules the teachers' label loss: set distill_coef > 0 too")
         if not 0 < self.clip_eps < math.inf:
             raise DragMeshError(f"clip_eps must be finite and > 0, got {self.clip_eps}")
 
@@ -100,3 +111,9 @@ class PPOConfig:
         """w_aux(epoch): 0 -> aux_weight, linear over ``aux_warmup`` (epochs counted from 0)."""
         a, b = self.aux_warmup
         return self.aux_weight * jnp.clip((epoch - a) / max(b - a, 1), 0.0, 1.0)
+
+    def distill_coef_at(self, epoch):
+        """c_d(epoch): ``distill_coef``, falling linearly to 0 at ``distill_epochs`` (0: constant)."""
+        if not self.distill_epochs:
+            return jnp.float32(self.distill_coef)
+        return self.distill_coef * jnp.clip(1.0 - epoch / self.distill_epochs, 0.0, 1.0)

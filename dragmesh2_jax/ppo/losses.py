@@ -3,8 +3,9 @@
 Loss (paper eq. opt): L = L_PPO + c_v L_V + c_b L_bounds - c_e H + w_aux L_aux, with the clipped surrogate, the
 clipped value loss in the normalised value space, rl_games' bounds loss on the action mean beyond +-bounds_at (1.1),
 and the auxiliary loss in z-scored target space (design §6-§7); beyond the paper, + c_s L_smooth when ``smooth_coef`` is
-set, and the surrogate over the sampled actions alone when some worlds act on the mean (``mean_share``). KL(old ||
-new) is reported as rl_games computes it.
+set, the surrogate over the sampled actions alone when some worlds act on the mean (``mean_share``), and + c_d
+L_distill, the teachers' labels, when the batch carries them (``distill_coef``). KL(old || new) is reported as rl_games
+computes it.
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ class Batch:
     value: jnp.ndarray  # normalised value prediction at rollout time
     advantage: jnp.ndarray
     target: jnp.ndarray  # normalised return target
+    teacher_mu: jnp.ndarray | None = None  # the teachers' labels (``ppo/distill.py``); None: not distilled
+    taught: jnp.ndarray | None = None  # 1 where the step's object has a teacher
 
     def take(self, index: jnp.ndarray) -> Batch:
         """The samples at ``index`` (a minibatch)."""
@@ -65,7 +68,7 @@ def compute_gae(rewards, values, dones, last_value, gamma: float, lam: float):
 
 
 def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: Batch, config: PPOConfig, w_aux,
-                     axis: str | None = None):
+                     axis: str | None = None, w_distill=0.0):
     """(total loss, its terms) of a minibatch. ``apply(params, state, history, privileged) -> (mu, log_std, value,
     z_hist)``; ``aux_head(params, z_hist) -> prediction`` (None: no auxiliary loss). ``axis``: a mesh axis the
     minibatch is split over (equal shards): the advantages are normalised by the whole minibatch's moments (the
@@ -100,6 +103,10 @@ def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: 
         aux = jnp.sum(jnp.asarray(c.aux_channel_weights) * jnp.mean((pred - batch.aux_target) ** 2, axis=0))
     total = pg + c.value_coef * vl + c.bounds_coef * bounds - c.entropy_coef * entropy + w_aux * aux
     terms = {}
+    if batch.teacher_mu is not None:  # DAgger's labels on the student's own steps, where a teacher gives one
+        miss = jnp.mean((mu - batch.teacher_mu) ** 2, axis=-1)
+        terms["distill_loss"] = jnp.sum(batch.taught * miss) / jnp.maximum(jnp.sum(batch.taught), 1.0)
+        total = total + w_distill * terms["distill_loss"]
     if c.smooth_coef > 0:
         change = jnp.mean((mu - batch.mu_prev) ** 2, axis=-1)
         terms["smooth_loss"] = jnp.sum(batch.prev_valid * change) / jnp.maximum(jnp.sum(batch.prev_valid), 1.0)

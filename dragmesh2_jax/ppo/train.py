@@ -40,6 +40,7 @@ from dragmesh2_jax.policies.gla import TokenWindows
 from dragmesh2_jax.policies.networks import ActorCritic, NetworkConfig, make_inference_fn
 from dragmesh2_jax.policies.normalize import RunningStats
 from dragmesh2_jax.ppo.config import PPOConfig
+from dragmesh2_jax.ppo.distill import Teachers, world_objects
 from dragmesh2_jax.ppo.losses import Batch, compute_gae, compute_ppo_loss, gaussian_logp
 from dragmesh2_jax.task.env import TaskData
 from dragmesh2_jax.task.protocol import CLIP_LEVEL, Env, Obs
@@ -185,9 +186,11 @@ def _explore(program: TrainProgram, worlds: int, axis: str | None) -> jnp.ndarra
     return (index >= program.config.mean_worlds).astype(jnp.float32)
 
 
-def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, explore: jnp.ndarray, axis: str | None = None):
-    """``explore``: this shard's worlds' ``_explore``."""
+def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, explore: jnp.ndarray, axis: str | None = None,
+             teachers: Teachers | None = None):
+    """``explore``: this shard's worlds' ``_explore``; ``teachers``: each step labelled by its world's teacher."""
     c, net = program.config, program.net
+    teacher_policy = program.make_policy(True)
     env = _env(program, data, ts)
     step = jax.vmap(env.step)
     vs = ts.value_stats
@@ -208,6 +211,9 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, explore: jnp
         out = {"obs": obs, "action": a, "logp": gaussian_logp(a, mu, log_std), "mu": mu,
                "log_std": jnp.broadcast_to(log_std, mu.shape), "value": v, "reward": reward,
                "done": nxt.done.astype(jnp.float32), "metrics": nxt.metrics}
+        if teachers is not None:
+            out["teacher_mu"], out["taught"] = teachers.label(teacher_policy, obs,
+                                                              world_objects(env_state.info, mu.shape[0]))
         return (nxt, rng), out
 
     (env_state, rng), traj = jax.lax.scan(body, (ts.env_state, ts.rng), None, length=c.rollout_len)
@@ -217,20 +223,23 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, explore: jnp
     return env_state, rng, traj, adv, ret
 
 
-def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | None = None) -> tuple[TrainState, dict]:
+def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | None = None,
+          teachers: Teachers | None = None) -> tuple[TrainState, dict]:
     """One epoch: rollout, GAE, PPO update. Returns the new state and the epoch's metrics (every one is logged).
 
     ``axis``: a mesh axis the worlds are split over (inside ``shard_map``; ``ts.env_state`` holds this shard's
     worlds, everything else is the same on every shard). Each shard rolls out its worlds on its own random stream
     and samples its own minibatches; gradients, normalisers' statistics, the adaptive learning rate's KL, the
     metrics and the reward's adaptive weights are reduced over the axis, so every shard ends with the same state
-    but its worlds. None: the whole batch here (no collective)."""
+    but its worlds. None: the whole batch here (no collective). ``teachers``: the run's (``ppo/distill.py``), when
+    its config distils (``distill_coef``)."""
     c, net = program.config, program.net
+    _check_teachers(program, teachers)
     if axis is not None and program.task.config.object_curriculum:
         raise DragMeshError("the object curriculum counts each object's episodes in one process: train it without "
                             "splitting the worlds over processes")
     explore = _explore(program, ts.env_state.done.shape[0], axis)
-    env_state, rng, traj, adv, ret = _rollout(program, data, ts, explore, axis)
+    env_state, rng, traj, adv, ret = _rollout(program, data, ts, explore, axis, teachers)
     explore = jnp.broadcast_to(explore, traj["done"].shape)  # per sample: (steps, worlds)
     vs = ts.value_stats.update(ret[..., None], axis)  # value normalisation (the reference's normalize_value)
     n = traj["reward"].size  # this shard's samples (all of them: num_envs x rollout_len)
@@ -250,12 +259,14 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
                   action=flat(traj["action"]), logp=flat(traj["logp"]), mu=flat(traj["mu"]),
                   mu_prev=flat(mu_prev), prev_valid=flat(prev_valid),
                   log_std=flat(traj["log_std"]), explore=flat(explore), value=norm(old_v), advantage=flat(adv),
-                  target=norm(flat(ret)))
+                  target=norm(flat(ret)), teacher_mu=_flat_or_none(traj, "teacher_mu", flat),
+                  taught=_flat_or_none(traj, "taught", flat))
     ts = ts.replace(value_stats=vs)
     w_aux = c.aux_weight_at(ts.epoch)
     aux_head = (lambda p, z: net.apply(p, z, method=ActorCritic.aux)) if program.use_aux else None
-    grad_fn = jax.grad(functools.partial(compute_ppo_loss, apply=net.apply, aux_head=aux_head, config=c, axis=axis),
-                       has_aux=True)
+    w_distill = c.distill_coef_at(ts.epoch)
+    grad_fn = jax.grad(functools.partial(compute_ppo_loss, apply=net.apply, aux_head=aux_head, config=c, axis=axis,
+                                         w_distill=w_distill), has_aux=True)
     mean = (lambda x: x) if axis is None else functools.partial(jax.lax.pmean, axis_name=axis)
     total = (lambda x: x) if axis is None else functools.partial(jax.lax.psum, axis_name=axis)
 
@@ -301,6 +312,8 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
         "action_l2": mean(m["action_l2"].mean()), "nonfinite": total(m["nonfinite"].sum()),
         "overflow": total(m["overflow"].sum()),
     }
+    if teachers is not None:
+        metrics |= {"w_distill": w_distill, "taught": mean(traj["taught"].mean())}
     metrics |= {k: mean(v.mean()) for k, v in m.items() if k.startswith(TERM_PREFIX)}  # per step, unnormalised
     steps = m if axis is None else {k: mean(jnp.mean(v)) for k, v in m.items()}  # what the weights' rules read
     if c.mean_worlds:  # the constraints' costs counted on the worlds that act on the mean: the deployed policy's
@@ -309,6 +322,20 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
                          for k, v in m.items() if k.startswith(COST_PREFIX)}
     weights, metrics = program.task.update_weights(ts.weights, metrics, steps)
     return ts.replace(**weights, env_state=env_state, rng=rng, epoch=ts.epoch + 1), metrics
+
+
+def _check_teachers(program: TrainProgram, teachers: Teachers | None) -> None:
+    """Teachers where, and only where, the config distils, one per object of the program's task (at trace time)."""
+    if (teachers is not None) != (program.config.distill_coef > 0):
+        raise DragMeshError("distill_coef > 0 and the run's teachers go together: a distilled run names its "
+                            "teachers, and teachers label only a run that distils")
+    objects = getattr(program.task, "num_objects", 1)
+    if teachers is not None and teachers.num_objects != objects:
+        raise DragMeshError(f"{teachers.num_objects} objects' teachers for a run over {objects} objects")
+
+
+def _flat_or_none(traj: dict, key: str, flat: Callable):
+    return flat(traj[key]) if key in traj else None
 
 
 # ------------------------------------------------------------------------------- compiled programs
@@ -324,25 +351,27 @@ def init_runs(program: TrainProgram, data: TaskData, keys: jax.Array) -> TrainSt
 
 
 @functools.partial(jax.jit, static_argnums=(0, 3))
-def _epoch_runs(program: TrainProgram, data: TaskData, ts: TrainState, mesh):
-    f = lambda data, ts: jax.vmap(lambda t: epoch(program, data, t))(ts)  # noqa: E731
+def _epoch_runs(program: TrainProgram, data: TaskData, ts: TrainState, mesh, teachers: Teachers | None):
+    f = lambda data, ts, teachers: jax.vmap(lambda t: epoch(program, data, t, teachers=teachers))(ts)  # noqa: E731
     if mesh is not None:
         P = jax.sharding.PartitionSpec
-        f = jax.shard_map(f, mesh=mesh, in_specs=(P(), P(RUN_AXIS)), out_specs=P(RUN_AXIS), check_vma=False)
-    return f(data, ts)
+        f = jax.shard_map(f, mesh=mesh, in_specs=(P(), P(RUN_AXIS), P()), out_specs=P(RUN_AXIS), check_vma=False)
+    return f(data, ts, teachers)
 
 
-def epoch_runs(program: TrainProgram, data: TaskData, ts: TrainState,
-               mesh: jax.sharding.Mesh | None = None) -> tuple[TrainState, dict]:
+def epoch_runs(program: TrainProgram, data: TaskData, ts: TrainState, mesh: jax.sharding.Mesh | None = None,
+               teachers: Teachers | None = None) -> tuple[TrainState, dict]:
     """One epoch of R runs at once: every leaf of ``ts`` (and of the metrics) has a leading run axis. With
-    ``mesh`` (one axis, ``RUN_AXIS``) the runs are split over its devices, R a multiple of its size."""
+    ``mesh`` (one axis, ``RUN_AXIS``) the runs are split over its devices, R a multiple of its size. ``teachers``:
+    every run's (a distilled run's seeds share them)."""
     if mesh is None and ts.epoch.shape[0] == 1:  # one run: the unbatched program (its lax.cond stays a branch)
-        return map_batched(lambda x: x[None], epoch_jit(program, data, map_batched(lambda x: x[0], ts)))
+        return map_batched(lambda x: x[None], epoch_jit(program, data, map_batched(lambda x: x[0], ts),
+                                                        teachers=teachers))
     if mesh is not None:  # runs split over the devices, the object's data on every device (no-ops once placed)
         P = jax.sharding.PartitionSpec
         data = jax.device_put(data, jax.sharding.NamedSharding(mesh, P()))
         ts = jax.device_put(ts, jax.sharding.NamedSharding(mesh, P(RUN_AXIS)))
-    return _epoch_runs(program, data, ts, mesh)
+    return _epoch_runs(program, data, ts, mesh, teachers)
 
 
 def run_mesh(num_runs: int) -> jax.sharding.Mesh | None:
@@ -367,11 +396,12 @@ def stack_runs(states: list[TrainState]) -> TrainState:
 
 
 def train(program: TrainProgram, data: TaskData, ts: TrainState, epochs: int, mesh=None,
-          on_epoch: Callable[[TrainState, dict], None] | None = None) -> TrainState:
+          on_epoch: Callable[[TrainState, dict], None] | None = None, teachers: Teachers | None = None) -> TrainState:
     """Train the runs of ``ts`` (leading run axis) up to ``epochs``: each epoch's state and host-side metrics (one
-    array per metric, one value per run) go to ``on_epoch`` (logs, checkpoints, robustness checks)."""
+    array per metric, one value per run) go to ``on_epoch`` (logs, checkpoints, robustness checks); ``teachers``: a
+    distilled run's."""
     for _ in range(int(ts.epoch[0]), epochs):
-        ts, m = epoch_runs(program, data, ts, mesh)
+        ts, m = epoch_runs(program, data, ts, mesh, teachers)
         m = {k: np.asarray(v, np.float64) for k, v in jax.device_get(m).items()}
         program.task.check_overflow(int(m["overflow"].sum()), f"epoch {int(ts.epoch[0])}")
         if not (np.all(np.isfinite(m["loss"])) and bool(_finite((ts.params, ts.opt_state)))):

@@ -28,6 +28,7 @@ from dragmesh2_jax.runs.presets import DEFAULT_METHOD
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import RESUMABLE, start_or_resume
 from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, on_objects
+from dragmesh2_jax.runs.teachers import teacher_runs
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import contact_budget
@@ -110,14 +111,16 @@ def run_dirs(out: str | Path, seeds: list[int] | None) -> list[RunDir]:
 def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | None, method: str | None = None,
               tree: RunSpec | None = None, backend: str = "auto", impl: str = "auto", seeds: list[int] | None = None,
               resume: bool = False, progress: bool = True, wandb: str | None = None, holdout: int | None = None,
-              overwrite: bool = False) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
+              overwrite: bool = False, teachers: list[str] | None = None
+              ) -> tuple[TrainProgram, list[tuple[int, list[dict]]]]:
     """A training run in ``out`` (or one per seed, as one program, in ``out/seed_N``) of ``tree``, the run's whole
     configuration tree as the command's flags left it (``train_defaults``: the method's, or the recorded run's when
     it resumes; None: the default method's), new or resumed from its record (``resume``: a longer schedule extends
     it, other checkpoint or robustness intervals and buffer sizes (``TaskConfig.RESIZABLE``) revise it; a method,
     object or any other config value that differs from the record is refused); ``object_dir`` a list: one policy
     over several objects, the last ``holdout`` held aside for checkpoint selection; ``overwrite``: what the folders
-    hold of earlier runs is removed first. Returns (program, [(seed, log rows)])."""
+    hold of earlier runs is removed first; ``teachers``: a distilled run's (``runs/teachers.py``). Returns (program,
+    [(seed, log rows)])."""
     if seeds is not None and not seeds:
         raise DragMeshError("--seeds: no seeds given")
     runs = run_dirs(out, seeds)
@@ -126,17 +129,20 @@ def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | No
         if trajectory is not None:
             raise DragMeshError(f"{out}: --resume continues the run on the trajectories it keeps; drop --trajectory")
         if runs[0].exists():
-            _check_resume(runs[0], tree, method, object_dir, holdout)
+            _check_resume(runs[0], tree, method, object_dir, holdout, teachers)
         program, _, logs = start_or_resume(tree if runs[0].exists() else None, runs, resume=True, backend=backend,
                                            impl=impl, progress=progress, wandb=wandb, overwrite=overwrite)
         return program, [(r.spec().schedule.seed, rows) for r, rows in zip(runs, logs, strict=True)]
-    spec = on_objects(tree.on(backend, impl), object_dir, holdout or 0)
+    spec = dataclasses.replace(on_objects(tree.on(backend, impl), object_dir, holdout or 0),
+                               teachers=tuple(str(Path(t).resolve()) for t in teachers or ()))
+    teacher_runs(spec)  # refused before a folder is written
     program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, progress=progress, wandb=wandb,
                                        overwrite=overwrite)
     return program, list(zip(seeds or [spec.schedule.seed], logs, strict=True))
 
 
-def _check_resume(run: RunDir, tree: RunSpec, method: str | None, object_dir, holdout: int | None) -> None:
+def _check_resume(run: RunDir, tree: RunSpec, method: str | None, object_dir, holdout: int | None,
+                  teachers: list[str] | None = None) -> None:
     """A resume continues the recorded run exactly: flags that would change it are refused, saying what differs."""
     recorded = run.spec()
     differ = recorded.differences(method, object_dir)
@@ -145,6 +151,8 @@ def _check_resume(run: RunDir, tree: RunSpec, method: str | None, object_dir, ho
                for k, v in tree.overrides(recorded).items() if k not in RESUMABLE]
     if holdout is not None and holdout != recorded.holdout:
         differ.append(f"holdout {holdout} (recorded {recorded.holdout})")
+    if teachers is not None and tuple(str(Path(t).resolve()) for t in teachers) != recorded.teachers:
+        differ.append(f"teachers {' '.join(teachers)} (recorded {' '.join(recorded.teachers) or 'none'})")
     if differ:
         raise DragMeshError(f"{run.path}: --resume continues the recorded run exactly, but the flags change "
                             f"{'; '.join(differ)}; drop them, or start a new run in another --out")

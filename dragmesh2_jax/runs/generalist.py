@@ -52,11 +52,13 @@ def generalist_objects(out: str | Path, progress: bool = True) -> tuple[list[str
 
 def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str, impl: str,
                    tree: RunSpec | None = None, progress: bool = True, wandb: str | None = None,
-                   overwrite: bool = False, method: str | None = None) -> tuple[TrainProgram, list]:
+                   overwrite: bool = False, method: str | None = None, teachers: list[str] | None = None
+                   ) -> tuple[TrainProgram, list]:
     """``train --generalist``: ``method`` (None: ``tree``'s; the ``generalist`` method, or the recorded run's when it
     resumes) over the generalist's objects (``generalist_objects``), new or resumed; ``tree``: its configuration tree
     as the command's flags left it. A method whose expert grasps the handle otherwise than the dataset's generator
-    (``generalist_residual``: the seated grasp that holds) trains on trajectories generated under its own grasp."""
+    (``generalist_residual``: the seated grasp that holds) trains on trajectories generated under its own grasp.
+    ``teachers``: a distilled generalist's specialists (``generalist_distilled``; ``runs/teachers.py``)."""
     tree = tree or train_defaults(out, method or GENERALIST, resume, seeds)
     with RunDir(out).writing():  # its objects are built into OUT: by the one writer, and never into another run
         if not resume and not overwrite:
@@ -65,7 +67,7 @@ def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str
         objects, trajectories, holdout = generalist_objects(out, progress)
         return train_run(out, objects, None if resume else own_trajectories(tree, trajectories),
                          method or tree.method, tree, backend, impl, seeds, resume, progress=progress, wandb=wandb,
-                         holdout=holdout, overwrite=overwrite)
+                         holdout=holdout, overwrite=overwrite, teachers=teachers)
 
 
 def own_trajectories(tree: RunSpec, trajectories: list[str]) -> list[str] | None:

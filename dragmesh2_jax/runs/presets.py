@@ -46,6 +46,9 @@ GENERALIST_ROBUST_EPISODES = 40
 GENERALIST_SCHEDULE: dict[str, Any] = {"schedule.epochs": GENERALIST_EPOCHS, "schedule.save_every": 100,
                                        "schedule.robust_every": 100,
                                        "schedule.robust_episodes": GENERALIST_ROBUST_EPISODES}
+#: The distilled generalist's label loss (``ppo.distill_coef``; the point mass's student closes 90% of its gap to its
+#: teacher at 5 in 20 epochs: tests/ppo/test_distill.py) and the epochs over which it falls to 0 (1.2 M env steps).
+DISTILLED: dict[str, Any] = {"ppo.distill_coef": 5.0, "ppo.distill_epochs": 600}
 #: The paper's baselines and ablation "w/o PICA": no r_bound / r_contact, nominal damping, no auxiliary loss.
 NO_PHYSICAL_SIGNALS: dict[str, Any] = {"task.reward.w_bound": 0.0, "task.reward.w_contact": 0.0,
                                        "task.damping_range": (1.0, 1.0), "ppo.aux_weight": 0.0}
@@ -262,6 +265,12 @@ METHODS = {m.name: m for m in (
            "budget",
            {**SEATED_HOLDS, "task.observation": "handle", **GENERALIST_SCHEDULE},
            status="experimental", evidence="results/generalist_residual/ (3 seeds; its rule did not adopt it)"),
+    Method("generalist_distilled", "generalist_residual distilled from per-object specialists (DAgger: the student "
+           "acts over the mix; each world's teacher, a generalist_residual run on its object, labels the step; the "
+           "label loss falls to 0 over 600 epochs, PPO alone after): train --generalist --method "
+           "generalist_distilled --teachers RUN ...",
+           {**SEATED_HOLDS, "task.observation": "handle", **GENERALIST_SCHEDULE, **DISTILLED},
+           status="experimental", evidence="none yet: built, not yet trained at its budget (issue 55)"),
     Method("hold_blind_residual", "the recipe (hold_blind) as a residual over the expert drag: the policy's action "
            "adds to the one that follows the drag at its own pace (its zero replays the expert), so it learns the "
            "corrections, not the pull", {**HOLD_BLIND, **RESIDUAL},

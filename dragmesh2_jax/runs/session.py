@@ -49,6 +49,7 @@ from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.runs.build import programs_of
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.spec import RunSpec, Schedule
+from dragmesh2_jax.runs.teachers import load_teachers
 from dragmesh2_jax.task.config import RESIZABLE
 from dragmesh2_jax.trajectory.schema import Trajectory
 
@@ -215,8 +216,9 @@ def _start_or_resume(given, runs, seeds, trajectory, resume, start, backend, imp
             raise DragMeshError(f"{runs[0].path}: already trained {done} epochs; --epochs {spec.schedule.epochs} "
                                 "would undo them (give more epochs to extend the run)")
         spec = spec.on(backend, impl) if backend else spec
-        program, heldout, _ = programs_of(spec, runs[0].trajectories())
+        program, heldout, tasks = programs_of(spec, runs[0].trajectories())
         template = init_jit(program, program.data(), seed_keys(seeds[:1])[0])
+        teachers = _teachers(spec, tasks, template)
         states = [_restore(template, r.epoch_checkpoints()[common]) for r in runs]
         ts = stack_runs(states)
         rows = [r.log_rows(common) for r in runs]
@@ -231,22 +233,31 @@ def _start_or_resume(given, runs, seeds, trajectory, resume, start, backend, imp
             if not overwrite:
                 r.require_new()
         program, heldout, tasks = programs_of(spec, trajectory)
+        ts = init_runs(program, program.data(len(seeds)), seed_keys(seeds)) if start is None else stack_runs([start])
+        teachers = _teachers(spec, tasks, take_run(ts, 0))  # before a folder is written: they may be refused
         for r, s in zip(runs, seeds, strict=True):  # one stopped before its first checkpoint starts again
             if overwrite and (removed := r.clear()):  # once the new run is known to build
                 print(f"note: --overwrite: removed {', '.join(removed)} from {r.path}", file=sys.stderr)
             budget = program.task.budget
             r.start(spec.with_seed(s), program.task.engine, [tr for t in tasks for tr in t.trajectories],
                     buffers=None if budget is None else budget.to_json())
-        ts = init_runs(program, program.data(len(seeds)), seed_keys(seeds)) if start is None else stack_runs([start])
         rows, robust_rows = [[] for _ in runs], [[] for _ in runs]
     ts = _loop(program, runs, ts, rows, robust_rows, spec.schedule, resume, selection, progress, log_fn, wandb,
-               heldout)
+               heldout, teachers)
     return program, ts, rows
+
+
+def _teachers(spec: RunSpec, tasks: list, template: TrainState):
+    """``load_teachers`` of ``spec`` (its training objects' tasks first in ``tasks``; a one-process run only)."""
+    teachers = load_teachers(spec, [t.traj for t in tasks[:len(tasks) - spec.holdout]], template)
+    if teachers is not None and distributed.joined():
+        raise DragMeshError("a distilled run trains in one process: drop --coordinator")
+    return teachers
 
 
 def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[list[dict]],
           robust_rows: list[list[dict]], schedule: Schedule, resumed: bool, selection: EvalProtocol,
-          progress: bool, log_fn, wandb: str | None, heldout=None) -> TrainState:
+          progress: bool, log_fn, wandb: str | None, heldout=None, teachers=None) -> TrainState:
     c, epochs, save_every, robust_every = program.config, schedule.epochs, schedule.save_every, schedule.robust_every
     selection = selection or dataclasses.replace(SELECTION, episodes=schedule.robust_episodes)
     check = selection_check(program, selection, heldout) if robust_every > 0 else None
@@ -302,7 +313,7 @@ def _loop(program: TrainProgram, runs: list[RunDir], ts: TrainState, rows: list[
                 ts = distributed.train_worlds(program, program.data(), take_run(ts, 0), epochs, on_epoch)
                 ts = stack_runs([distributed.gather(ts)])
             else:
-                ts = train(program, program.data(len(runs)), ts, epochs, run_mesh(len(runs)), on_epoch)
+                ts = train(program, program.data(len(runs)), ts, epochs, run_mesh(len(runs)), on_epoch, teachers)
         except NonFiniteLearning as e:
             raise DragMeshError(f"{e}; {_last_good(runs[0], program.config.lr)}") from None
     for i, run in enumerate(runs):

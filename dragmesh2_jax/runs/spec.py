@@ -6,9 +6,9 @@ method's overrides, then the command's) or a fine-tune (:func:`finetune_spec`: t
 overrides), written into the run's record, and read back whole for resume, evaluation and fine-tunes. Methods and
 fine-tunes are override sets, dotted paths into this tree (:func:`apply_overrides`).
 
-The record (``run.json``, format 4): ``format``, ``method``, ``object``, ``objects``, ``holdout``, ``finetune``,
-``parent``, ``backend`` (the engine it trained on), ``buffers``, ``schedule``, ``ppo``, ``task``, ``scene``,
-``network``, ``overrides`` (what the run changes of its method's tree, by dotted path: for people; the reader
+The record (``run.json``, format 4): ``format``, ``method``, ``object``, ``objects``, ``holdout``, ``teachers`` (absent:
+none), ``finetune``, ``parent``, ``backend`` (the engine it trained on), ``buffers``, ``schedule``, ``ppo``, ``task``,
+``scene``, ``network``, ``overrides`` (what the run changes of its method's tree, by dotted path: for people; the reader
 rebuilds the run from the sections) and ``versions``. Formats 2 and 3 are read too: their ``ppo`` held the epochs and
 the seed (moved to the schedule); what they did not record (the network's encoder and critic, the schedule's
 checkpoint rule and evaluation cells, and in format 2 the network's sizes and the schedule's intervals) is the
@@ -104,6 +104,9 @@ class RunSpec:
     """a run over several objects: all of them, ``object`` first (empty: one object)"""
     holdout: int = 0
     """the last ``holdout`` of ``objects`` are held aside: best_robust is chosen on them"""
+    teachers: tuple[str, ...] = ()
+    """a distilled run's teachers (``ppo.distill_coef``): run folders or checkpoints, each a specialist on one of
+    its training objects (``runs/teachers.py``)"""
 
     def __post_init__(self):
         if self.objects and self.objects[0] != self.object:
@@ -155,6 +158,7 @@ class RunSpec:
         objects = [{"folder": str(Path(o).resolve()), "hash": object_hash(o)} for o in self.objects]
         return {"format": RECORD_FORMAT, "method": self.method, "object": str(Path(self.object).resolve()),
                 "objects": objects, "holdout": self.holdout,
+                "teachers": [str(Path(t).resolve()) for t in self.teachers],
                 "finetune": self.finetune, "parent": self.parent, "backend": backend, "buffers": buffers,
                 **self.sections(), "overrides": self._overrides_json(), "versions": versions()}
 
@@ -204,6 +208,9 @@ class RunSpec:
         if not isinstance(objects, list) or not all(isinstance(o, dict) and isinstance(o.get("folder"), str)
                                                     for o in objects):
             raise DragMeshError(f"{where}: objects must be a list of {{folder, hash}}, got {objects!r}")
+        teachers = record.get("teachers") or []
+        if not isinstance(teachers, list) or not all(isinstance(t, str) for t in teachers):
+            raise DragMeshError(f"{where}: teachers must be a list of run folders, got {teachers!r}")
         holdout = record.get("holdout", 0)
         if not isinstance(holdout, int):
             raise DragMeshError(f"{where}: holdout must be a whole number, got {holdout!r}")
@@ -222,7 +229,8 @@ class RunSpec:
                                              "reset_noise": {**made, **sections["task"]["reset_noise"]}}}
         return cls(method=record["method"], object=installed(record["object"]),
                    objects=tuple(installed(o["folder"]) for o in objects),
-                   holdout=holdout, finetune=record.get("finetune"), parent=record.get("parent"),
+                   holdout=holdout, teachers=tuple(teachers), finetune=record.get("finetune"),
+                   parent=record.get("parent"),
                    **{k: config_from_dict(c, sections[k], where) for k, c in SECTIONS.items()})
 
 

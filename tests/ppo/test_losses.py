@@ -153,6 +153,20 @@ def test_the_smoothness_loss_is_the_mean_squared_change_of_the_action_mean_over_
     assert "smooth_loss" not in _loss(*setup)[1]
 
 
+def test_the_label_loss_is_the_mean_squared_miss_over_the_taught_steps():
+    """Means (0, 0), (1, 1), (2, 0) against the teachers' (1, 1), (5, 5), (0, 0), the second step untaught: the loss is
+    mean(1, 2) = 1.5 (the untaught miss not counted), weighed by w_distill in the total; the untaught step gets no
+    gradient; a batch without labels has no such term."""
+    params, batch = _setup([1.0] * 3, [0.0] * 3, mu=[[0, 0], [1, 1], [2, 0]])
+    taught = batch.replace(teacher_mu=jnp.array([[1.0, 1.0], [5.0, 5.0], [0.0, 0.0]]), taught=jnp.array([1.0, 0, 1]))
+    loss = lambda p, b: compute_ppo_loss(p, _apply, None, b, PPOConfig(**PLAIN), 0.0, w_distill=0.4)  # noqa: E731
+    total, info = loss(params, taught)
+    assert float(info["distill_loss"]) == pytest.approx(1.5) and float(total) == pytest.approx(0.4 * 1.5)
+    grads, _ = jax.grad(loss, has_aux=True)(params, taught)
+    np.testing.assert_allclose(np.asarray(grads["mu"]), 0.4 * np.array([[-1, -1], [0, 0], [2, 0]]) / 2, rtol=1e-5)
+    assert "distill_loss" not in loss(params, batch)[1]
+
+
 def test_advantage_normalisation_uses_the_minibatch_mean_and_std():
     """Advantages (3, 1) normalise to (1, -1) (population std); ratios (1.1, 1): the loss is -(1.1 - 1) / 2."""
     _, info = _loss(*_setup([1.1, 1.0], [3.0, 1.0]), normalize_advantage=True)

@@ -22,7 +22,7 @@ from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import policy_params
 from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
-from dragmesh2_jax.runs.generalist import AS_A_PERSON, GENERALIST, OPEN_EPISODES, package_run
+from dragmesh2_jax.runs.generalist import AS_A_PERSON, GENERALIST, OPEN_EPISODES, generalist_objects, package_run
 from dragmesh2_jax.runs.presets import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, GENERALIST_ROBUST_EPISODES
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED, RunDir
 from dragmesh2_jax.runs.spec import method_defaults
@@ -108,6 +108,25 @@ def test_train_generalist_trains_another_method_over_the_mix_under_that_method_s
     assert dragmesh2(["train", "--generalist", "--out", str(out), "--resume", "--epochs", "3", "--backend",
                       "mujoco", "--quiet"]) == 0
     assert run.log_rows()[-1]["epoch"] == 3 and RunDir(out).spec().method == "generalist_residual"
+
+
+def test_train_generalist_distils_from_a_specialist_on_its_training_object(tmp_path, monkeypatch):
+    """``--method generalist_distilled --teachers RUN``: a generalist_residual specialist trained on the mix's one
+    training object (a folder of its own: the same object by content) labels the student's every world; the record
+    keeps it and a resume reads it back."""
+    monkeypatch.setattr(procedural, "GENERALIST_MIX", TINY_MIX)
+    student, teacher = tmp_path / "student", tmp_path / "teacher"
+    objects = generalist_objects(tmp_path / "mix", progress=False)[0]
+    assert dragmesh2(["train", "--method", "generalist_residual", "--object", objects[0], "--out", str(teacher),
+                      *TINY]) == 0
+    assert dragmesh2(["train", "--generalist", "--method", "generalist_distilled", "--teachers", str(teacher),
+                      "--out", str(student), *TINY]) == 0
+    run = RunDir(student)
+    assert run.spec().teachers == (str(teacher.resolve()),) and run.spec().ppo.distill_coef > 0
+    assert [r["taught"] for r in run.log_rows()] == [1.0, 1.0]  # its one training object is taught
+    assert dragmesh2(["train", "--generalist", "--out", str(student), "--resume", "--epochs", "3", "--backend",
+                      "mujoco", "--quiet"]) == 0
+    assert run.log_rows()[-1]["taught"] == 1.0
 
 
 @pytest.mark.long
