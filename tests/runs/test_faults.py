@@ -218,8 +218,8 @@ def test_learning_that_goes_non_finite_stops_and_keeps_the_last_good_checkpoint(
     that continues it at a lower learning rate; nothing of epoch 2 is saved; that fine-tune runs and is recorded."""
     real = train_module.epoch_runs
 
-    def diverging(program, data, ts, mesh=None):
-        ts, m = real(program, data, ts, mesh)
+    def diverging(program, data, ts, mesh=None, teachers=None):
+        ts, m = real(program, data, ts, mesh, teachers)
         if int(ts.epoch[0]) == 2:
             ts = ts.replace(params=jax.tree.map(lambda x: x * np.nan, ts.params))
         return ts, m
