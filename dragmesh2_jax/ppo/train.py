@@ -232,7 +232,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
     and samples its own minibatches; gradients, normalisers' statistics, the adaptive learning rate's KL, the
     metrics and the reward's adaptive weights are reduced over the axis, so every shard ends with the same state
     but its worlds. None: the whole batch here (no collective). ``teachers``: the run's (``ppo/distill.py``), when
-    its config distils (``distill_coef``)."""
+    its config distils (``distill_coef``); None there: no labels this epoch (past ``distill_epochs``: ``train``)."""
     c, net = program.config, program.net
     _check_teachers(program, teachers)
     if axis is not None and program.task.config.object_curriculum:
@@ -312,8 +312,11 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
         "action_l2": mean(m["action_l2"].mean()), "nonfinite": total(m["nonfinite"].sum()),
         "overflow": total(m["overflow"].sum()),
     }
-    if teachers is not None:
-        metrics |= {"w_distill": w_distill, "taught": mean(traj["taught"].mean())}
+    if c.distill_coef > 0:  # the same columns every epoch, those without labels (past their epochs) at 0
+        labelled = teachers is not None
+        metrics |= {"w_distill": w_distill if labelled else jnp.float32(0.0),
+                    "taught": mean(traj["taught"].mean()) if labelled else jnp.float32(0.0)}
+        metrics.setdefault("distill_loss", jnp.float32(0.0))
     metrics |= {k: mean(v.mean()) for k, v in m.items() if k.startswith(TERM_PREFIX)}  # per step, unnormalised
     steps = m if axis is None else {k: mean(jnp.mean(v)) for k, v in m.items()}  # what the weights' rules read
     if c.mean_worlds:  # the constraints' costs counted on the worlds that act on the mean: the deployed policy's
@@ -325,10 +328,9 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
 
 
 def _check_teachers(program: TrainProgram, teachers: Teachers | None) -> None:
-    """Teachers where, and only where, the config distils, one per object of the program's task (at trace time)."""
-    if (teachers is not None) != (program.config.distill_coef > 0):
-        raise DragMeshError("distill_coef > 0 and the run's teachers go together: a distilled run names its "
-                            "teachers, and teachers label only a run that distils")
+    """Teachers only where the config distils, one per object of the program's task (at trace time)."""
+    if teachers is not None and not program.config.distill_coef:
+        raise DragMeshError("teachers label only a run that distils (distill_coef > 0)")
     objects = getattr(program.task, "num_objects", 1)
     if teachers is not None and teachers.num_objects != objects:
         raise DragMeshError(f"{teachers.num_objects} objects' teachers for a run over {objects} objects")
@@ -399,9 +401,11 @@ def train(program: TrainProgram, data: TaskData, ts: TrainState, epochs: int, me
           on_epoch: Callable[[TrainState, dict], None] | None = None, teachers: Teachers | None = None) -> TrainState:
     """Train the runs of ``ts`` (leading run axis) up to ``epochs``: each epoch's state and host-side metrics (one
     array per metric, one value per run) go to ``on_epoch`` (logs, checkpoints, robustness checks); ``teachers``: a
-    distilled run's."""
+    distilled run's, labelling its epochs until ``distill_epochs`` (after them nothing reads the labels: none made)."""
+    last = program.config.distill_epochs
     for _ in range(int(ts.epoch[0]), epochs):
-        ts, m = epoch_runs(program, data, ts, mesh, teachers)
+        labelling = teachers if not last or int(ts.epoch[0]) < last else None
+        ts, m = epoch_runs(program, data, ts, mesh, labelling)
         m = {k: np.asarray(v, np.float64) for k, v in jax.device_get(m).items()}
         program.task.check_overflow(int(m["overflow"].sum()), f"epoch {int(ts.epoch[0])}")
         if not (np.all(np.isfinite(m["loss"])) and bool(_finite((ts.params, ts.opt_state)))):

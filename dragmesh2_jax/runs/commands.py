@@ -28,7 +28,7 @@ from dragmesh2_jax.runs.presets import DEFAULT_METHOD
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import RESUMABLE, start_or_resume
 from dragmesh2_jax.runs.spec import RunSpec, apply_overrides, finetune_spec, method_defaults, on_objects
-from dragmesh2_jax.runs.teachers import teacher_runs
+from dragmesh2_jax.runs.teachers import named_teachers, teacher_runs
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import contact_budget
@@ -134,7 +134,7 @@ def train_run(out: str, object_dir: str | list[str] | None, trajectory: str | No
                                            impl=impl, progress=progress, wandb=wandb, overwrite=overwrite)
         return program, [(r.spec().schedule.seed, rows) for r, rows in zip(runs, logs, strict=True)]
     spec = dataclasses.replace(on_objects(tree.on(backend, impl), object_dir, holdout or 0),
-                               teachers=tuple(str(Path(t).resolve()) for t in teachers or ()))
+                               teachers=named_teachers(teachers or (), tree.ppo.distill_coef))
     teacher_runs(spec)  # refused before a folder is written
     program, _, logs = start_or_resume(spec, runs, seeds, trajectory, resume=False, progress=progress, wandb=wandb,
                                        overwrite=overwrite)
@@ -151,7 +151,7 @@ def _check_resume(run: RunDir, tree: RunSpec, method: str | None, object_dir, ho
                for k, v in tree.overrides(recorded).items() if k not in RESUMABLE]
     if holdout is not None and holdout != recorded.holdout:
         differ.append(f"holdout {holdout} (recorded {recorded.holdout})")
-    if teachers is not None and tuple(str(Path(t).resolve()) for t in teachers) != recorded.teachers:
+    if teachers is not None and named_teachers(teachers, recorded.ppo.distill_coef) != recorded.teachers:
         differ.append(f"teachers {' '.join(teachers)} (recorded {' '.join(recorded.teachers) or 'none'})")
     if differ:
         raise DragMeshError(f"{run.path}: --resume continues the recorded run exactly, but the flags change "

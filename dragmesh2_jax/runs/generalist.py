@@ -26,6 +26,7 @@ from dragmesh2_jax.runs.commands import (
 )
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, RunDir
 from dragmesh2_jax.runs.spec import RunSpec
+from dragmesh2_jax.runs.teachers import named_teachers
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task.load import generator_params, plan_scene_config
 from dragmesh2_jax.trajectory.dataset import build_dataset
@@ -60,6 +61,8 @@ def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str
     (``generalist_residual``: the seated grasp that holds) trains on trajectories generated under its own grasp.
     ``teachers``: a distilled generalist's specialists (``generalist_distilled``; ``runs/teachers.py``)."""
     tree = tree or train_defaults(out, method or GENERALIST, resume, seeds)
+    if not resume:
+        named_teachers(teachers or (), tree.ppo.distill_coef)  # before the objects are built
     with RunDir(out).writing():  # its objects are built into OUT: by the one writer, and never into another run
         if not resume and not overwrite:
             for run in run_dirs(out, seeds):

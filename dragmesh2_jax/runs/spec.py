@@ -6,13 +6,13 @@ method's overrides, then the command's) or a fine-tune (:func:`finetune_spec`: t
 overrides), written into the run's record, and read back whole for resume, evaluation and fine-tunes. Methods and
 fine-tunes are override sets, dotted paths into this tree (:func:`apply_overrides`).
 
-The record (``run.json``, format 4): ``format``, ``method``, ``object``, ``objects``, ``holdout``, ``teachers`` (absent:
-none), ``finetune``, ``parent``, ``backend`` (the engine it trained on), ``buffers``, ``schedule``, ``ppo``, ``task``,
-``scene``, ``network``, ``overrides`` (what the run changes of its method's tree, by dotted path: for people; the reader
-rebuilds the run from the sections) and ``versions``. Formats 2 and 3 are read too: their ``ppo`` held the epochs and
-the seed (moved to the schedule); what they did not record (the network's encoder and critic, the schedule's
-checkpoint rule and evaluation cells, and in format 2 the network's sizes and the schedule's intervals) is the
-recorded method's.
+The record (``run.json``, format 4): ``format``, ``method``, ``object``, ``objects``, ``holdout``, ``teachers`` (a
+list, empty but for a distilled run; absent from older records), ``finetune``, ``parent``, ``backend`` (the engine it
+trained on), ``buffers``, ``schedule``, ``ppo``, ``task``, ``scene``, ``network``, ``overrides`` (what the run
+changes of its method's tree, by dotted path: for people; the reader rebuilds the run from the sections) and
+``versions``. Formats 2 and 3 are read too: their ``ppo`` held the epochs and the seed (moved to the schedule); what
+they did not record (the network's encoder and critic, the schedule's checkpoint rule and evaluation cells, and in
+format 2 the network's sizes and the schedule's intervals) is the recorded method's.
 """
 
 from __future__ import annotations
@@ -298,5 +298,7 @@ def finetune_spec(parent: RunSpec, recipe: str, checkpoint: str, epochs: int, sc
     """A fine-tune of ``parent`` with ``recipe`` (its overrides on the parent's tree), from ``checkpoint``, to
     ``epochs`` (counted on from the checkpoint's epoch), ``schedule``'s other fields changed where given."""
     ft = get_finetune(recipe)
-    return apply_overrides(parent, {**ft.overrides, **{f"schedule.{k}": v for k, v in (schedule or {}).items()},
+    untaught = {"teachers": (), "ppo.distill_coef": 0.0, "ppo.distill_epochs": 0}  # a fine-tune is PPO on its own
+    return apply_overrides(parent, {**untaught, **ft.overrides,
+                                    **{f"schedule.{k}": v for k, v in (schedule or {}).items()},
                                     "schedule.epochs": epochs, "finetune": recipe, "parent": str(checkpoint)})

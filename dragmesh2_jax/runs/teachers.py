@@ -12,12 +12,14 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import jax.numpy as jnp
+
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import object_hash
 from dragmesh2_jax.ppo.checkpoint import load_checkpoint
 from dragmesh2_jax.ppo.distill import Teachers
 from dragmesh2_jax.ppo.train import TrainState, policy_params
-from dragmesh2_jax.runs.rundir import RunDir
+from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.spec import RunSpec
 from dragmesh2_jax.task.config import RESIZABLE
 from dragmesh2_jax.trajectory.schema import Trajectory
@@ -31,13 +33,27 @@ def _task(spec: RunSpec, like: RunSpec):
     return dataclasses.replace(spec.task, **{k: getattr(like.task, k) for k in FREE})
 
 
+def named_teachers(teachers: list[str] | tuple[str, ...], distill_coef: float) -> tuple[str, ...]:
+    """The teachers a command names, each pinned to the checkpoint that stands for it now (its last epoch's where
+    that is ``final``: a teacher trained on later still labels a resumed student as it did); teachers go with a label
+    loss (``distill_coef`` > 0) and a label loss with teachers. Checked before anything is built or written."""
+    if bool(teachers) != (distill_coef > 0):
+        raise DragMeshError("a distilled run (ppo.distill_coef > 0) names its teachers (--teachers RUN ...), and "
+                            "teachers label only a distilled run")
+    pinned = []
+    for folder in teachers:
+        run, checkpoint = RunDir.of_checkpoint(folder)
+        if checkpoint == run.checkpoint("final") and run.has_checkpoint(last := epoch_name(run.trained_epochs())):
+            checkpoint = run.checkpoint(last)
+        pinned.append(str(checkpoint.resolve()))
+    return tuple(pinned)
+
+
 def teacher_runs(spec: RunSpec) -> list[tuple[int, RunDir, Path]]:
     """The teachers of ``spec`` (none for a run that does not distil), each as (its object's index among the training
     objects, its run, the checkpoint that stands for it), checked from the records alone: anything that keeps a
     teacher from labelling is one error line (the expert drag is checked on loading, where it is built)."""
-    if bool(spec.teachers) != (spec.ppo.distill_coef > 0):
-        raise DragMeshError("a distilled run (ppo.distill_coef > 0) names its teachers (--teachers RUN ...), and "
-                            "teachers label only a distilled run")
+    named_teachers(spec.teachers, spec.ppo.distill_coef)
     training = [object_hash(o) for o in spec.training_objects]
     held = {object_hash(o) for o in spec.heldout_objects}
     found: list[tuple[int, RunDir, Path]] = []
@@ -78,5 +94,7 @@ def load_teachers(spec: RunSpec, trajectories: list[Trajectory], template: Train
         if run.trajectory().frames != trajectories[i].frames:
             raise DragMeshError(f"{run.path}: trained on another expert drag than the student's on its object (a "
                                 "residual adds to it): train it with the student's method and trajectory")
-        params[i] = policy_params(load_checkpoint(template, checkpoint, keep_env=True))
+        # a specialist has no object draw to restore (a curriculum student's template has one)
+        params[i] = policy_params(load_checkpoint(template.replace(object_success=jnp.zeros(0, jnp.float32)),
+                                                  checkpoint, keep_env=True))
     return Teachers.stack(params)

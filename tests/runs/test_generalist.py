@@ -122,7 +122,9 @@ def test_train_generalist_distils_from_a_specialist_on_its_training_object(tmp_p
     assert dragmesh2(["train", "--generalist", "--method", "generalist_distilled", "--teachers", str(teacher),
                       "--out", str(student), *TINY]) == 0
     run = RunDir(student)
-    assert run.spec().teachers == (str(teacher.resolve()),) and run.spec().ppo.distill_coef > 0
+    # pinned to the checkpoint that stood for the teacher (its last epoch's): extended later, it labels as it did
+    assert run.spec().teachers == (str((teacher / "checkpoints" / "epoch_0002").resolve()),)
+    assert run.spec().ppo.distill_coef > 0
     assert [r["taught"] for r in run.log_rows()] == [1.0, 1.0]  # its one training object is taught
     assert dragmesh2(["train", "--generalist", "--out", str(student), "--resume", "--epochs", "3", "--backend",
                       "mujoco", "--quiet"]) == 0

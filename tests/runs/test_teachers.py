@@ -13,7 +13,7 @@ from dragmesh2_jax.assets.procedural import default_object, packaged_object
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
-from dragmesh2_jax.runs.spec import on_objects
+from dragmesh2_jax.runs.spec import finetune_spec, on_objects
 from tests.conftest import TINY_RUNS, tiny_spec
 
 pytestmark = pytest.mark.xdist_group(TINY_RUNS)
@@ -32,9 +32,11 @@ def teacher(tmp_path_factory):
     return run
 
 
-def _student(teachers, objects=(DRAWER, DOOR), holdout: int = 0, **ppo):
-    spec = on_objects(tiny_spec(schedule=QUICK, **{"distill_coef": 1.0, **ppo}), list(objects), holdout)
-    return dataclasses.replace(spec, teachers=tuple(str(t) for t in teachers))
+def _student(teachers, objects=(DRAWER, DOOR), holdout: int = 0, task: dict | None = None, **ppo):
+    """A tiny distilled run over ``objects``, 8 worlds (drawn over both objects)."""
+    spec = on_objects(tiny_spec(schedule=QUICK, **{"distill_coef": 1.0, "num_envs": 8, **ppo}), list(objects), holdout)
+    return dataclasses.replace(spec, teachers=tuple(str(t) for t in teachers),
+                               task=dataclasses.replace(spec.task, **(task or {})))
 
 
 def test_the_specialist_labels_its_objects_worlds_and_a_resume_keeps_it(teacher, tmp_path):
@@ -48,6 +50,17 @@ def test_the_specialist_labels_its_objects_worlds_and_a_resume_keeps_it(teacher,
     resumed = dataclasses.replace(run.spec(), schedule=dataclasses.replace(run.spec().schedule, epochs=3))
     _, _, (rows,) = start_or_resume(resumed, [run], resume=True, progress=False)
     assert len(rows) == 3 and rows[-1]["taught"] > 0
+    # a fine-tune of the student is PPO on its own: no teachers, no label loss
+    tuned = finetune_spec(run.spec(), "continued", str(run.checkpoint("final")), 4)
+    assert tuned.teachers == () and tuned.ppo.distill_coef == 0 and tuned.ppo.distill_epochs == 0
+
+
+def test_a_student_that_draws_its_objects_by_their_failures_is_taught_too(teacher, tmp_path):
+    """The object curriculum keeps a success rate per object in the student's state; a specialist has none."""
+    run = RunDir(tmp_path / "student")
+    _, _, (rows,) = start_or_resume(_student([teacher.path], task={"object_curriculum": 0.5}), [run], resume=False,
+                                    progress=False)
+    assert all(r["taught"] > 0 for r in rows)
 
 
 @pytest.mark.parametrize("case, match", [
