@@ -68,11 +68,12 @@ def compute_gae(rewards, values, dones, last_value, gamma: float, lam: float):
 
 
 def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: Batch, config: PPOConfig, w_aux,
-                     axis: str | None = None, w_distill=0.0):
+                     axis: str | None = None, w_distill=0.0, active: jnp.ndarray | None = None):
     """(total loss, its terms) of a minibatch. ``apply(params, state, history, privileged) -> (mu, log_std, value,
     z_hist)``; ``aux_head(params, z_hist) -> prediction`` (None: no auxiliary loss). ``axis``: a mesh axis the
     minibatch is split over (equal shards): the advantages are normalised by the whole minibatch's moments (the
-    terms stay this shard's means: the caller averages their gradients over the axis)."""
+    terms stay this shard's means: the caller averages their gradients over the axis). ``active``: the action's
+    channels that move something (None: all), the only ones the teachers' labels are matched on."""
     c = config
     mu, log_std, v, z = apply(params, batch.state, batch.history, batch.privileged)
     logp = gaussian_logp(batch.action, mu, log_std)
@@ -104,7 +105,8 @@ def compute_ppo_loss(params, apply: Callable, aux_head: Callable | None, batch: 
     total = pg + c.value_coef * vl + c.bounds_coef * bounds - c.entropy_coef * entropy + w_aux * aux
     terms = {}
     if batch.teacher_mu is not None:  # DAgger's labels on the student's own steps, where a teacher gives one
-        miss = jnp.mean((mu - batch.teacher_mu) ** 2, axis=-1)
+        live = jnp.ones(mu.shape[-1]) if active is None else jnp.asarray(active, mu.dtype)
+        miss = jnp.sum(live * (mu - batch.teacher_mu) ** 2, axis=-1) / jnp.sum(live)
         terms["distill_loss"] = jnp.sum(batch.taught * miss) / jnp.maximum(jnp.sum(batch.taught), 1.0)
         total = total + w_distill * terms["distill_loss"]
     if c.smooth_coef > 0:

@@ -266,7 +266,7 @@ def epoch(program: TrainProgram, data: TaskData, ts: TrainState, axis: str | Non
     aux_head = (lambda p, z: net.apply(p, z, method=ActorCritic.aux)) if program.use_aux else None
     w_distill = c.distill_coef_at(ts.epoch)
     grad_fn = jax.grad(functools.partial(compute_ppo_loss, apply=net.apply, aux_head=aux_head, config=c, axis=axis,
-                                         w_distill=w_distill), has_aux=True)
+                                         w_distill=w_distill, active=program.task.active), has_aux=True)
     mean = (lambda x: x) if axis is None else functools.partial(jax.lax.pmean, axis_name=axis)
     total = (lambda x: x) if axis is None else functools.partial(jax.lax.psum, axis_name=axis)
 

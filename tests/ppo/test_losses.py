@@ -165,6 +165,10 @@ def test_the_label_loss_is_the_mean_squared_miss_over_the_taught_steps():
     grads, _ = jax.grad(loss, has_aux=True)(params, taught)
     np.testing.assert_allclose(np.asarray(grads["mu"]), 0.4 * np.array([[-1, -1], [0, 0], [2, 0]]) / 2, rtol=1e-5)
     assert "distill_loss" not in loss(params, batch)[1]
+    # matched on the channels that move something: the second channel locked, only the first's misses count
+    locked = compute_ppo_loss(params, _apply, None, taught, PPOConfig(**PLAIN), 0.0, w_distill=0.4,
+                              active=jnp.array([True, False]))[1]
+    assert float(locked["distill_loss"]) == pytest.approx((1 + 4) / 2)
 
 
 def test_advantage_normalisation_uses_the_minibatch_mean_and_std():
