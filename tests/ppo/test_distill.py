@@ -22,6 +22,9 @@ class TwoPointMasses(PointMass):
 
     num_objects = 2
 
+    def signature(self):  # another program than the point mass's (jit caches programs by their signature)
+        return ("two_point_masses",)
+
     def reset(self, key, damping_scale=None, start=None):
         s = super().reset(key, damping_scale, start)
         obj = jax.random.randint(jax.random.fold_in(key, 1), (), 0, 2)
