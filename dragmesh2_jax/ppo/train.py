@@ -190,7 +190,7 @@ def _rollout(program: TrainProgram, data: TaskData, ts: TrainState, explore: jnp
              teachers: Teachers | None = None):
     """``explore``: this shard's worlds' ``_explore``; ``teachers``: each step labelled by its world's teacher."""
     c, net = program.config, program.net
-    teacher_policy = program.make_policy(True)
+    teacher_policy = program.make_policy(True) if teachers is not None else None
     env = _env(program, data, ts)
     step = jax.vmap(env.step)
     vs = ts.value_stats

@@ -105,8 +105,8 @@ class RunSpec:
     holdout: int = 0
     """the last ``holdout`` of ``objects`` are held aside: best_robust is chosen on them"""
     teachers: tuple[str, ...] = ()
-    """a distilled run's teachers (``ppo.distill_coef``): run folders or checkpoints, each a specialist on one of
-    its training objects (``runs/teachers.py``)"""
+    """a distilled run's teachers (``ppo.distill_coef``): checkpoints (a command's run folders pinned to theirs), each
+    of a specialist on one of its training objects (``runs/teachers.py``)"""
 
     def __post_init__(self):
         if self.objects and self.objects[0] != self.object:
@@ -210,7 +210,7 @@ class RunSpec:
             raise DragMeshError(f"{where}: objects must be a list of {{folder, hash}}, got {objects!r}")
         teachers = record.get("teachers") or []
         if not isinstance(teachers, list) or not all(isinstance(t, str) for t in teachers):
-            raise DragMeshError(f"{where}: teachers must be a list of run folders, got {teachers!r}")
+            raise DragMeshError(f"{where}: teachers must be a list of checkpoints, got {teachers!r}")
         holdout = record.get("holdout", 0)
         if not isinstance(holdout, int):
             raise DragMeshError(f"{where}: holdout must be a whole number, got {holdout!r}")

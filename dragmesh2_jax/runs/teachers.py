@@ -33,13 +33,18 @@ def _task(spec: RunSpec, like: RunSpec):
     return dataclasses.replace(spec.task, **{k: getattr(like.task, k) for k in FREE})
 
 
-def named_teachers(teachers: list[str] | tuple[str, ...], distill_coef: float) -> tuple[str, ...]:
-    """The teachers a command names, each pinned to the checkpoint that stands for it now (its last epoch's where
-    that is ``final``: a teacher trained on later still labels a resumed student as it did); teachers go with a label
-    loss (``distill_coef`` > 0) and a label loss with teachers. Checked before anything is built or written."""
+def _paired(teachers, distill_coef: float) -> None:
+    """Teachers go with a label loss (``distill_coef`` > 0), and a label loss with teachers."""
     if bool(teachers) != (distill_coef > 0):
         raise DragMeshError("a distilled run (ppo.distill_coef > 0) names its teachers (--teachers RUN ...), and "
                             "teachers label only a distilled run")
+
+
+def named_teachers(teachers: list[str] | tuple[str, ...], distill_coef: float) -> tuple[str, ...]:
+    """The teachers a command names, each pinned to the checkpoint that stands for it now (its last epoch's where
+    that is ``final``: a teacher trained on later still labels a resumed student as it did), checked before anything
+    is built or written (``_paired``)."""
+    _paired(teachers, distill_coef)
     pinned = []
     for folder in teachers:
         run, checkpoint = RunDir.of_checkpoint(folder)
@@ -53,7 +58,7 @@ def teacher_runs(spec: RunSpec) -> list[tuple[int, RunDir, Path]]:
     """The teachers of ``spec`` (none for a run that does not distil), each as (its object's index among the training
     objects, its run, the checkpoint that stands for it), checked from the records alone: anything that keeps a
     teacher from labelling is one error line (the expert drag is checked on loading, where it is built)."""
-    named_teachers(spec.teachers, spec.ppo.distill_coef)
+    _paired(spec.teachers, spec.ppo.distill_coef)
     training = [object_hash(o) for o in spec.training_objects]
     held = {object_hash(o) for o in spec.heldout_objects}
     found: list[tuple[int, RunDir, Path]] = []
