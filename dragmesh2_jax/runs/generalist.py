@@ -77,7 +77,7 @@ def own_trajectories(tree: RunSpec, trajectories: list[str]) -> list[str] | None
     """The dataset's trajectories where ``tree``'s expert is planned as the dataset's generator planned it (its grasp,
     in the default scene), else None: each object's trajectory is generated under the tree's own."""
     same = (generator_params(tree.task) == GeneratorParams() and tree.task.expert_plan_contact != "holds"
-            and plan_scene_config(tree.task, tree.scene) == SceneConfig())
+            and not tree.task.expert_rest and plan_scene_config(tree.task, tree.scene) == SceneConfig())
     return trajectories if same else None
 
 

@@ -399,6 +399,17 @@ METHODS = {m.name: m for m in (
            "over [1, 8] (a third of the worlds below x2, where a door can be rushed); 150 epochs, final checkpoint",
            {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED), "task.damping_log": True},
            status="experimental", evidence="results/screen/RULE.md (twenty-fourth lever)"),
+    Method("hold_blind_residual_wrapped", "hold_blind_residual_unhurried_log over the grasp that holds the most "
+           "among the hooks and the wraps (the palm over the bar, the fingers around it), planned on the hand's "
+           "contacts and rested there: its wrist's target where it rests, its fingers' grip_closure past; 150 "
+           "epochs, final checkpoint",
+           {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED), "task.damping_log": True, "task.expert_grasp": "planned",
+            "task.expert_plan_contact": "scene", "task.expert_wrap": True, "task.expert_rest": True},
+           status="experimental", evidence="results/screen/RULE.md (twenty-fifth lever)"),
+    Method("hold_blind_residual_either", "hold_blind_residual_unhurried_log with the wraps among its expert's "
+           "placements (the one that holds the most kept, on either contacts); 150 epochs, final checkpoint",
+           {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED), "task.damping_log": True, "task.expert_wrap": True},
+           status="experimental", evidence="results/screen/RULE.md (twenty-fifth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

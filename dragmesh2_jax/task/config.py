@@ -361,9 +361,17 @@ class TaskConfig:
     """beyond the paper, which palm placement the generated trajectory grasps with (ExpertPlacement's comment)"""
     expert_plan_contact: ExpertPlanContact = "scene"
     """beyond the paper, the physics the generated trajectory is planned in (ExpertPlanContact's comment)"""
+    expert_wrap: bool = False
+    """beyond the paper: the generator also tries the wraps (trajectory.grasp.WRAPS: the palm over the bar, the
+    fingers around it) after the hooks, the placement kept as expert_placement says"""
+    expert_rest: bool = False
+    """beyond the paper: the generated grasp rested on the run's own contacts (the fingers under light drives), the
+    drag starting there, the fingers grip_closure past it (trajectory.rest; results/screen/RULE.md, twenty-fifth
+    lever)"""
     grip_closure: float = 0.04
-    """rad, under the seated grasp: how far past where the handle stopped them the fingers' targets close (the grip's
-    force, at most the finger drives' limit; below alpha, so that the expert's own action stays inside its bound)"""
+    """rad, under the seated or rested grasp: how far past where the handle stopped them the fingers' targets close
+    (the grip's force, at most the finger drives' limit; below alpha, so that the expert's own action stays inside its
+    bound)"""
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @staticmethod

@@ -12,7 +12,9 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import SceneConfig, build_scene
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask, trajectory_joint
+from dragmesh2_jax.trajectory import grasp
 from dragmesh2_jax.trajectory.generator import SEAT_DEPTH, GeneratorParams, generate, holds
+from dragmesh2_jax.trajectory.rest import rested
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory
 
 
@@ -30,7 +32,8 @@ def generator_params(config: TaskConfig) -> GeneratorParams:
     """How the task's trajectory is generated where none is given: its expert grasp and placement."""
     return GeneratorParams(seat_depth=SEAT_DEPTH if config.expert_grasp == "seated" else None,
                            grip_closure=config.grip_closure, placement_choice=config.expert_placement,
-                           hold_steps=config.episode_length)
+                           hold_steps=config.episode_length,
+                           placements=GeneratorParams().placements + (grasp.WRAPS if config.expert_wrap else ()))
 
 
 def plan_scene_config(config: TaskConfig, scene_config: SceneConfig) -> SceneConfig:
@@ -46,15 +49,18 @@ def plan_scene_config(config: TaskConfig, scene_config: SceneConfig) -> SceneCon
 def generated(obj, scene, config: TaskConfig, slots: int | None = None) -> Trajectory:
     """The task's trajectory, generated under ``config``'s grasp in ``plan_scene_config``'s scene; under
     ``expert_plan_contact`` "holds" in both, the one planned in ``scene`` kept unless the other, replayed in
-    ``scene``, holds the part at a higher damping (``trajectory.generator.holds``)."""
+    ``scene``, holds the part at a higher damping (``trajectory.generator.holds``); under ``expert_rest`` the one
+    kept rested on ``scene``'s contacts (``trajectory.rest``)."""
     params = generator_params(config)
     planned_in = plan_scene_config(config, scene.config)
     other = scene if planned_in == scene.config else build_scene(obj, planned_in, slots=slots)
     if config.expert_plan_contact != "holds":
-        return generate(obj, params, scene=other)
-    own, soft = generate(obj, params, scene=scene), generate(obj, params, scene=other)
-    held = [holds(scene, t, params.substeps, params.hold_steps) for t in (own, soft)]
-    return soft if held[1] > held[0] else own
+        kept = generate(obj, params, scene=other)
+    else:
+        own, soft = generate(obj, params, scene=scene), generate(obj, params, scene=other)
+        held = [holds(scene, t, params.substeps, params.hold_steps) for t in (own, soft)]
+        kept = soft if held[1] > held[0] else own
+    return rested(scene, kept, config.grip_closure) if config.expert_rest else kept
 
 
 def task_of(object_dir: str, trajectory: str | Trajectory | None, config: TaskConfig,

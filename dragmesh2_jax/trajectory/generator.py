@@ -36,6 +36,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import time
+import warnings
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Literal
@@ -143,7 +144,9 @@ class Plan:
 def continuous_euler(R: np.ndarray, prev: np.ndarray | None, limit: float = np.pi) -> np.ndarray:
     """Intrinsic XYZ angles of R. Of the two equivalent solutions and their 2 pi shifts, keep those inside the
     wrist limits (+-``limit``) and take the one nearest ``prev``, so the wrist PD target never jumps."""
-    a = Rotation.from_matrix(R).as_euler("XYZ")
+    with warnings.catch_warnings():  # a palm facing along x (the wrap on a door) is the gimbal lock: third angle 0
+        warnings.simplefilter("ignore", UserWarning)
+        a = Rotation.from_matrix(R).as_euler("XYZ")
     b = np.array([a[0] + np.pi, np.pi - a[1], a[2] + np.pi])
     cands = (np.stack([a, b])[:, None, :] + EULER_SHIFTS).reshape(-1, 3)
     inside = np.all(np.abs(cands) <= limit + 1e-9, axis=1)
@@ -177,7 +180,8 @@ def make_plan(scene: Scene, params: GeneratorParams, placement: grasp.GraspParam
         away = h.centre - pivot
         away = away - (away @ axis) * axis
         away /= max(np.linalg.norm(away), 1e-9)
-    R_w = grasp.wrist_orientation(h, open_dir, away, flip=placement.flip)
+    R_w = (grasp.wrap_orientation(h, placement.flip) if placement.wrap
+           else grasp.wrist_orientation(h, open_dir, away, flip=placement.flip))
     palm = grasp.palm_target(h, R_w, placement)
     q_open, q_pre, q_grasp = grasp.open_pose(), grasp.preshape_pose(), grasp.grasp_pose(h.thickness)
     if seated is not None:

@@ -27,12 +27,18 @@ THUMB_ABD, THUMB_FLEX, THUMB_ROT, THUMB_PIP, THUMB_DIP = 36, 37, 38, 41, 44
 
 @dataclass(frozen=True)
 class GraspParams:
-    """Palm placement relative to the handle (m): the palm sits ``palm_clearance`` + thickness/2 out along the
-    palm normal and ``normal_offset`` out along the handle normal (design §9: 0.030 and 0.025 + 0.008)."""
+    """Palm placement relative to the handle (m). The hook (design §9): the palm beside the bar, the fingers pointing
+    into the part, ``palm_clearance`` + thickness/2 out along the palm normal and ``normal_offset`` out along the
+    handle normal (0.030 and 0.025 + 0.008). The wrap (``wrap``, beyond the paper): the palm over the handle's outer
+    face and facing the part, the fingers across the bar, ``palm_clearance`` out from that face and ``normal_offset``
+    back from the bar against the fingers, so that the bar lies under the proximal phalanges and the fingers curl
+    around it into the gap behind; the hook's fingertips meet the part first where that gap is narrow (the tuning
+    door's 19 mm: results/screen/RULE.md, twenty-fifth lever)."""
 
     palm_clearance: float = 0.030
     normal_offset: float = 0.033
-    flip: bool = False  # put the palm on the other side of the bar
+    flip: bool = False  # put the palm on the other side of the bar (the wrap: the fingers the other way across it)
+    wrap: bool = False
 
 
 def wrist_orientation(handle: HandleFrame, opening_dir: np.ndarray | None = None,
@@ -58,8 +64,28 @@ def wrist_orientation(handle: HandleFrame, opening_dir: np.ndarray | None = None
     return options[1 if flip else 0][1]
 
 
+#: The wrap placements (GraspParams.wrap), the fingers one way across the bar and the other: the palm 22 mm out from
+#: the handle's outer face, 45 mm back from the bar (on the tuning door, 60 mm puts the bar past the proximal
+#: phalanges, which drag the hand 24 mm along it as they close; results/screen/RULE.md, twenty-fifth lever).
+WRAPS = (GraspParams(palm_clearance=0.022, normal_offset=0.045, wrap=True),
+         GraspParams(palm_clearance=0.022, normal_offset=0.045, flip=True, wrap=True))
+
+
+def wrap_orientation(handle: HandleFrame, flip: bool = False) -> np.ndarray:
+    """R_w of the wrap (GraspParams): Z = the handle's outward normal, so that the palm (-Z) faces the part, X = the
+    long axis (its sign flipped by ``flip``), the fingers (-Y) across the bar."""
+    z = handle.normal / np.linalg.norm(handle.normal)
+    x = (-1.0 if flip else 1.0) * handle.long_axis
+    x = x - (x @ z) * z
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z], axis=1)
+
+
 def palm_target(handle: HandleFrame, R: np.ndarray, params: GraspParams = GraspParams()) -> np.ndarray:
     """Where the palm centre goes for the grasp (world)."""
+    if params.wrap:
+        return (handle.centre + handle.normal * (handle.thickness / 2 + params.palm_clearance)
+                + R[:, 1] * params.normal_offset)
     return (handle.centre + R[:, 2] * (handle.thickness / 2 + params.palm_clearance)
             + handle.normal * params.normal_offset)
 

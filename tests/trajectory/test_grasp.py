@@ -3,14 +3,18 @@ contact stiffness on the object, the hand holds the handle on its surface rather
 lies inside the handle; MuJoCo's default object contacts, averaged with the hand's, let the drives press the hand
 into it: the defaults, until the seated grasp opens small handles too)."""
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
 
 from dragmesh2_jax.assets.gapartnet import load_gapartnet
+from dragmesh2_jax.assets.hand import HandConfig
 from dragmesh2_jax.assets.procedural import packaged_object, synthesize
-from dragmesh2_jax.runs.build import load_task
-from dragmesh2_jax.scene import SceneConfig, contact_depth
+from dragmesh2_jax.runs.build import load_task, tasks_of
+from dragmesh2_jax.runs.spec import method_spec
+from dragmesh2_jax.scene import SceneConfig, build_scene, contact_depth
 from dragmesh2_jax.task.expert import expert_replay
 from dragmesh2_jax.trajectory import grasp
 from dragmesh2_jax.trajectory.generator import SEAT_DEPTH, GeneratorParams, generate
@@ -78,3 +82,36 @@ def test_a_seated_grasp_that_passes_nowhere_falls_back_to_a_planned_placement_th
     assert t.header["quality"]["passed"] and t.header["generator"]["seated"] is False and "grip" not in t.header
     kept = t.header["generator"]["placement"]
     assert next(a for a in attempts if not a["seated"] and a["placement"] == kept)["passed"]
+
+
+@pytest.fixture(scope="module")
+def door_on_the_hands_contacts():
+    """The tuning door (a vertical bar 12 mm wide, 19 mm clear of the door behind it) in the recipe's scene: the
+    hand's contacts on the object, 2 N m finger drives."""
+    hand = HandConfig(finger=dataclasses.replace(HandConfig().finger, force_limit=2.0))
+    obj = load_gapartnet(str(packaged_object("door_cabinet_0000")))
+    return obj, build_scene(obj, SceneConfig(object_contact="hand", hand=hand))
+
+
+def test_the_hooks_fingertips_meet_the_door_before_its_bar_and_the_wrap_closes_around_the_bar(
+        door_on_the_hands_contacts):
+    """The hook points the fingers into the part: here they reach the door while the palm is still 10 cm out, and the
+    hand stalls off the bar without touching it; the wrap lays them across the bar and closes them around it."""
+    obj, scene = door_on_the_hands_contacts
+    hook = generate(obj, GeneratorParams(placements=(grasp.GraspParams(palm_clearance=0.015, normal_offset=0.02),)),
+                    scene=scene)
+    wrap = generate(obj, GeneratorParams(placements=grasp.WRAPS[:1]), scene=scene)
+    assert hook.header["quality"]["handle_contacts"] == 0 and not hook.header["quality"]["passed"]
+    q = wrap.header["quality"]
+    assert q["passed"] and q["grip"] and q["handle_contacts"] >= 4, q
+    assert q["achieved_opening"] >= 0.9 * q["planned_opening"]
+
+
+def test_the_wrapped_expert_opens_the_tuning_door_at_x8_with_its_fingers_on_the_bar():
+    (task,) = tasks_of(method_spec("hold_blind_residual_wrapped", str(packaged_object("door_cabinet_0000")),
+                                   backend="mujoco"))
+    g = task.traj.header["generator"]
+    assert g["placement_params"]["wrap"] and "rested" in g and "grip" in task.traj.header
+    for damping in (1.0, 8.0):
+        r = _replay(task, damping)
+        assert r.steps is not None and r.deepest <= MAX_DEPTH, (damping, r)
