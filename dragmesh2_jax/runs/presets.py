@@ -410,6 +410,12 @@ METHODS = {m.name: m for m in (
            "placements (the one that holds the most kept, on either contacts); 150 epochs, final checkpoint",
            {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED), "task.damping_log": True, "task.expert_wrap": True},
            status="experimental", evidence="results/screen/RULE.md (twenty-fifth lever)"),
+    Method("hold_blind_residual_chosen", "hold_blind_residual_either with its expert's grasp chosen from clear "
+           "starts (task.expert_placement starts: within 2 mm, then the load held from every start, then the lighter "
+           "pull); 150 epochs, final checkpoint",
+           {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED), "task.damping_log": True, "task.expert_wrap": True,
+            "task.expert_placement": "starts"},
+           status="experimental", evidence="results/screen/RULE.md (twenty-sixth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

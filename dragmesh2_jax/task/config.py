@@ -104,8 +104,11 @@ ExpertGrasp = Literal["seated", "planned"]
 #: Which of the generator's palm placements the expert grasps with (``expert_placement``): "first", the first that
 #: passes its gate and grips the handle; "holds", of those that pass, the one whose drag still opens the part at the
 #: highest damping (``trajectory.generator.HOLD_DAMPINGS``; RESULTS.md, the suite); with the seated grasp, a planned
-#: placement where it holds more than every seated one (generator 1.4: the recipe's expert, RESULTS.md §3).
-ExpertPlacement = Literal["first", "holds"]
+#: placement where it holds more than every seated one (generator 1.4: the recipe's expert, RESULTS.md §3); "starts",
+#: every placement in every physics it is planned in, each replayed from a few clear starts and kept by the depth,
+#: then the load held from all of them, then the lighter pull (``task.choice``; a choice made from the exact grasp
+#: keeps grasps that let go from perturbed ones: results/screen/RULE.md, twenty-sixth lever).
+ExpertPlacement = Literal["first", "holds", "starts"]
 #: The physics the generated trajectory is planned, seated and chosen in (``expert_plan_contact``): "scene", the run's
 #: own; "mujoco", MuJoCo's default object contacts and the hand's default finger drives (``SceneConfig()``'s), the
 #: trajectory a run on those makes. Its soft contacts seat the hand 4-9 mm into the handle; run on the hand's stiff

@@ -10,6 +10,7 @@ from dragmesh2_jax.assets.gapartnet import load_gapartnet
 from dragmesh2_jax.assets.hand import HandConfig
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.scene import SceneConfig, build_scene
+from dragmesh2_jax.task import choice
 from dragmesh2_jax.task.config import TaskConfig
 from dragmesh2_jax.task.env import PullTask, trajectory_joint
 from dragmesh2_jax.trajectory import grasp
@@ -31,7 +32,8 @@ def adopt_trajectory_target(obj, traj: Trajectory):
 def generator_params(config: TaskConfig) -> GeneratorParams:
     """How the task's trajectory is generated where none is given: its expert grasp and placement."""
     return GeneratorParams(seat_depth=SEAT_DEPTH if config.expert_grasp == "seated" else None,
-                           grip_closure=config.grip_closure, placement_choice=config.expert_placement,
+                           grip_closure=config.grip_closure,
+                           placement_choice="holds" if config.expert_placement == "holds" else "first",
                            hold_steps=config.episode_length,
                            placements=GeneratorParams().placements + (grasp.WRAPS if config.expert_wrap else ()))
 
@@ -49,12 +51,18 @@ def plan_scene_config(config: TaskConfig, scene_config: SceneConfig) -> SceneCon
 def generated(obj, scene, config: TaskConfig, slots: int | None = None) -> Trajectory:
     """The task's trajectory, generated under ``config``'s grasp in ``plan_scene_config``'s scene; under
     ``expert_plan_contact`` "holds" in both, the one planned in ``scene`` kept unless the other, replayed in
-    ``scene``, holds the part at a higher damping (``trajectory.generator.holds``); under ``expert_rest`` the one
+    ``scene``, holds the part at a higher damping (``trajectory.generator.holds``); under ``expert_placement``
+    "starts" each placement generated alone in each, the one kept by ``task.choice``; under ``expert_rest`` the one
     kept rested on ``scene``'s contacts (``trajectory.rest``)."""
     params = generator_params(config)
     planned_in = plan_scene_config(config, scene.config)
     other = scene if planned_in == scene.config else build_scene(obj, planned_in, slots=slots)
-    if config.expert_plan_contact != "holds":
+    if config.expert_placement == "starts":
+        where = {"scene": [scene], "mujoco": [other], "holds": [scene, other]}[config.expert_plan_contact]
+        each = [(s.config.object_contact, generate(obj, replace(params, placements=(p,)), scene=s))
+                for s in where for p in params.placements]
+        kept = choice.chosen(scene, [(w, t) for w, t in each if t.header["quality"]["passed"]], config)
+    elif config.expert_plan_contact != "holds":
         kept = generate(obj, params, scene=other)
     else:
         own, soft = generate(obj, params, scene=scene), generate(obj, params, scene=other)

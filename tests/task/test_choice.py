@@ -1,0 +1,43 @@
+"""The expert's grasp chosen by what the evaluation measures: candidates replayed from clear starts, kept by the depth,
+then the load held from every start, then the lighter pull (``task.choice``)."""
+
+import numpy as np
+import pytest
+
+from dragmesh2_jax.assets.procedural import packaged_object
+from dragmesh2_jax.runs.build import load_task
+from dragmesh2_jax.scene import SceneConfig
+from dragmesh2_jax.task import choice
+from dragmesh2_jax.task.config import TaskConfig
+
+
+def test_a_part_open_start_replays_the_drag_from_where_the_plan_reaches_the_part():
+    targets = np.arange(10.0)[:, None] * np.ones((1, 3))
+    schedule = np.array([0.0, 0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.5, 0.5, 0.5])
+    np.testing.assert_array_equal(choice.from_part(targets, schedule, 0.0)[:, 0], np.arange(10.0))
+    np.testing.assert_array_equal(choice.from_part(targets, schedule, 0.25)[:, 0], [4, 5, 6, 7, 8, 9, 9, 9, 9, 9])
+    np.testing.assert_array_equal(choice.from_part(targets, schedule, 0.9)[:, 0], [9] * 10)  # past the plan: held
+
+
+@pytest.fixture(scope="module")
+def drawer_candidates():
+    """The packaged drawer on the hand's contacts: its grasp seated there (on the bar's surface) and the grasp planned
+    on MuJoCo's soft contacts (pressed into the bar, lighter where nothing resists)."""
+    drawer, scene = str(packaged_object("drawer_cabinet_0000")), SceneConfig(object_contact="hand")
+    seated = load_task(drawer, None, backend="mujoco", scene_config=scene, expert_grasp="seated")
+    soft = load_task(drawer, None, backend="mujoco", scene_config=scene, expert_plan_contact="mujoco")
+    return seated.scene, [("mujoco", soft.traj), ("hand", seated.traj)]
+
+
+def test_the_choice_keeps_the_grasp_within_the_depth_over_one_listed_first_and_records_every_score(
+        drawer_candidates, tmp_path, monkeypatch):
+    monkeypatch.setenv("DRAGMESH2_CACHE", str(tmp_path))
+    scene, candidates = drawer_candidates
+    config = TaskConfig(backend="mujoco", expert_placement="starts")
+    kept = choice.chosen(scene, candidates, config)
+    scores = kept.header["generator"]["choice"]["scores"]
+    assert kept.header["generator"]["choice"]["kept"] == 1 and kept.frames == candidates[1][1].frames
+    assert [s["planned_in"] for s in scores] == ["mujoco", "hand"]
+    assert not scores[0]["within_depth"] and scores[0]["deepest_m"] > choice.MAX_DEPTH
+    assert scores[1]["within_depth"] and scores[1]["held"] >= 8.0  # the drawer opens at x8 from every start
+    assert choice.chosen(scene, candidates, config).header == kept.header  # read back from the cache
