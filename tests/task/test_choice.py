@@ -41,3 +41,15 @@ def test_the_choice_keeps_the_grasp_within_the_depth_over_one_listed_first_and_r
     assert not scores[0]["within_depth"] and scores[0]["deepest_m"] > choice.MAX_DEPTH
     assert scores[1]["within_depth"] and scores[1]["held"] >= 8.0  # the drawer opens at x8 from every start
     assert choice.chosen(scene, candidates, config).header == kept.header  # read back from the cache
+
+
+def test_a_task_under_the_starts_choice_scores_each_placement_alone_and_keeps_one_within_the_depth():
+    task = load_task(str(packaged_object("drawer_cabinet_0000")), None, backend="mujoco",
+                     scene_config=SceneConfig(object_contact="hand"), expert_grasp="seated",
+                     expert_placement="starts")
+    g = task.traj.header["generator"]
+    scores = g["choice"]["scores"]
+    assert len(scores) >= 2 and {s["planned_in"] for s in scores} == {"hand"}  # the run's own contacts only
+    assert len({repr(s["placement"]) for s in scores}) == len(scores)  # each placement generated alone
+    best = scores[g["choice"]["kept"]]
+    assert best["within_depth"] and best["held"] == max(s["held"] for s in scores if s["within_depth"])
