@@ -170,14 +170,15 @@ SATURATION_BUDGET = 0.2  # the share of steps a saturation bound allows (``plaus
 PENETRATION_LIMIT = 0.002  # m: the issue's bound on the deepest hand-object contact
 
 
-def within(saturation_budget: float, *more: Constraint) -> dict[str, Any]:
-    """Beside the load's bound, the residual's own output saturated (past CLIP_LEVEL on a DoF that moves) in at most
-    ``saturation_budget`` of the steps, the hand deeper than PENETRATION_LIMIT in at most 5% (RULE.md, lever 18), and
-    ``more``: the levers that give the residual a pace (levers 21-24; door 101 at x1 under lever 20 opened in 40 steps
-    where its prior takes 92, the palm at 0.26 m/s against 0.09)."""
-    return {"task.reward.constraints": HORIZON_BOUND["task.reward.constraints"] + (
-        bounded("saturation", CLIP_LEVEL, budget=saturation_budget),
-        bounded("penetration", PENETRATION_LIMIT, budget=0.05)) + more}
+def within(saturation_budget: float, *more: Constraint, load_budget: float = 0.05) -> dict[str, Any]:
+    """Beside the load's bound (HORIZON_BOUND's, its budget ``load_budget``), the residual's own output saturated (past
+    CLIP_LEVEL on a DoF that moves) in at most ``saturation_budget`` of the steps, the hand deeper than
+    PENETRATION_LIMIT in at most 5% (RULE.md, lever 18), and ``more``: the levers that give the residual a pace (levers
+    21-24; door 101 at x1 under lever 20 opened in 40 steps where its prior takes 92, the palm at 0.26 m/s against
+    0.09)."""
+    return {"task.reward.constraints": (bounded(RELATIVE_LOAD, 1.1, "horizon", budget=load_budget),
+                                        bounded("saturation", CLIP_LEVEL, budget=saturation_budget),
+                                        bounded("penetration", PENETRATION_LIMIT, budget=0.05)) + more}
 
 
 #: The palm's settled pace a person keeps: the priors' settled palm p95 at x1 is 0.09-0.12 m/s on the four screen
@@ -416,6 +417,11 @@ METHODS = {m.name: m for m in (
            {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED), "task.damping_log": True, "task.expert_wrap": True,
             "task.expert_placement": "starts"},
            status="experimental", evidence="results/screen/RULE.md (twenty-sixth lever)"),
+    Method("hold_blind_residual_chosen_tight", "hold_blind_residual_chosen with a fifth of the load bound's budget: "
+           "1% of steps after an episode first pulls past 1.1x its expert's peak from its start; 150 epochs, final "
+           "checkpoint", {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01), "task.damping_log": True,
+                          "task.expert_wrap": True, "task.expert_placement": "starts"},
+           status="experimental", evidence="results/screen/RULE.md (twenty-seventh lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
