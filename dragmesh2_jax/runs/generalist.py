@@ -28,7 +28,7 @@ from dragmesh2_jax.runs.rundir import ACTOR_NAME, RunDir
 from dragmesh2_jax.runs.spec import RunSpec
 from dragmesh2_jax.runs.teachers import named_teachers
 from dragmesh2_jax.scene import SceneConfig
-from dragmesh2_jax.task.load import generator_params, plan_scene_config
+from dragmesh2_jax.task.load import generated_as_planned, generator_params, plan_scene_config
 from dragmesh2_jax.trajectory.dataset import build_dataset
 from dragmesh2_jax.trajectory.generator import GeneratorParams
 from dragmesh2_jax.trajectory.schema import write_trajectory
@@ -76,8 +76,8 @@ def generalist_run(out: str, seeds: list[int] | None, resume: bool, backend: str
 def own_trajectories(tree: RunSpec, trajectories: list[str]) -> list[str] | None:
     """The dataset's trajectories where ``tree``'s expert is planned as the dataset's generator planned it (its grasp,
     in the default scene), else None: each object's trajectory is generated under the tree's own."""
-    same = (generator_params(tree.task) == GeneratorParams() and tree.task.expert_plan_contact != "holds"
-            and not tree.task.expert_rest and plan_scene_config(tree.task, tree.scene) == SceneConfig())
+    same = (generator_params(tree.task) == GeneratorParams() and generated_as_planned(tree.task)
+            and plan_scene_config(tree.task, tree.scene) == SceneConfig())
     return trajectories if same else None
 
 

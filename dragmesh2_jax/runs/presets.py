@@ -20,10 +20,11 @@ success threshold, damping multipliers, episode length) is the paper's for every
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
+from dragmesh2_jax.task.choice import MAX_DEPTH
 from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig
 from dragmesh2_jax.task.expert import RELATIVE_LOAD
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
@@ -167,7 +168,7 @@ EITHER_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "holds"}
 #: and thirteenth levers).
 ON_TARGET: dict[str, Any] = {"task.residual_on": "target"}
 SATURATION_BUDGET = 0.2  # the share of steps a saturation bound allows (``plausible``'s on the wrist, ``within``'s)
-PENETRATION_LIMIT = 0.002  # m: the issue's bound on the deepest hand-object contact
+PENETRATION_LIMIT = MAX_DEPTH  # m: the issue's bound on the deepest hand-object contact
 
 
 def within(saturation_budget: float, *more: Constraint, load_budget: float = 0.05) -> dict[str, Any]:
@@ -176,7 +177,8 @@ def within(saturation_budget: float, *more: Constraint, load_budget: float = 0.0
     PENETRATION_LIMIT in at most 5% (RULE.md, lever 18), and ``more``: the levers that give the residual a pace (levers
     21-24; door 101 at x1 under lever 20 opened in 40 steps where its prior takes 92, the palm at 0.26 m/s against
     0.09)."""
-    return {"task.reward.constraints": (bounded(RELATIVE_LOAD, 1.1, "horizon", budget=load_budget),
+    (load,) = HORIZON_BOUND["task.reward.constraints"]
+    return {"task.reward.constraints": (replace(load, budget=load_budget),
                                         bounded("saturation", CLIP_LEVEL, budget=saturation_budget),
                                         bounded("penetration", PENETRATION_LIMIT, budget=0.05)) + more}
 

@@ -12,16 +12,16 @@ earlier candidate (the run's own contacts before MuJoCo's; the hooks before the 
 from __future__ import annotations
 
 import contextlib
-import hashlib
 from dataclasses import replace
 
 import numpy as np
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.io import cache_dir
+from dragmesh2_jax.io import cache_dir, hash_files
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.scene import Scene
 from dragmesh2_jax.task.config import ResetNoise, TaskConfig
+from dragmesh2_jax.task.env import substeps_of
 from dragmesh2_jax.task.expert import reachable_targets
 from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.schema import Trajectory, read_trajectory, write_trajectory
@@ -47,7 +47,7 @@ def score(scene: Scene, traj: Trajectory, config: TaskConfig) -> dict:
     noise = replace(config.reset_noise or ResetNoise(), bank=CHOICE_STARTS, seed=CHOICE_SEED)
     targets = reachable_targets(scene, traj, config)
     schedule = traj.drag_schedule(config.control_dt, config.episode_length)
-    substeps = max(1, round(config.control_dt / scene.config.timestep))
+    substeps = substeps_of(scene, config)
     until = traj.q_done_at(config.rho)
     starts = reset_starts(scene, traj, noise)
     held, depth, load = 0.0, 0.0, 0.0
@@ -69,10 +69,10 @@ def chosen(scene: Scene, candidates: list[tuple[str, Trajectory]], config: TaskC
     the config's fields the score reads."""
     if not candidates:
         raise DragMeshError(f"{scene.obj.folder}: no placement passes the generator's gate to choose from")
-    key = hashlib.sha256("\0".join([
+    key = hash_files([], extra="\0".join([
         *(repr(t.to_json()["header"]) + repr(t.hand_q.tobytes()) for _, t in candidates), scene.xml,
         repr((config.reset_noise, config.control_dt, config.episode_length, config.rho, config.settle_substeps,
-              CHOICE_STARTS, CHOICE_SEED, CHOICE_DAMPINGS, MAX_DEPTH))]).encode()).hexdigest()[:16]
+              CHOICE_STARTS, CHOICE_SEED, CHOICE_DAMPINGS, MAX_DEPTH))]))
     cache = cache_dir() / "choices" / f"{key}.json"
     if cache.is_file():
         try:

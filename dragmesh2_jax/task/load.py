@@ -48,6 +48,12 @@ def plan_scene_config(config: TaskConfig, scene_config: SceneConfig) -> SceneCon
     return replace(scene_config, object_contact=SceneConfig().object_contact, hand=hand)
 
 
+def generated_as_planned(config: TaskConfig) -> bool:
+    """Whether :func:`generated` returns the generator's trajectory in the plan scene as it is: no choice between
+    physics or among placements made here, and no rest."""
+    return config.expert_plan_contact != "holds" and config.expert_placement != "starts" and not config.expert_rest
+
+
 def generated(obj, scene, config: TaskConfig, slots: int | None = None) -> Trajectory:
     """The task's trajectory, generated under ``config``'s grasp in ``plan_scene_config``'s scene; under
     ``expert_plan_contact`` "holds" in both, the one planned in ``scene`` kept unless the other, replayed in
