@@ -24,8 +24,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
-from dragmesh2_jax.task.choice import MAX_DEPTH
-from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig
+from dragmesh2_jax.task.config import MAX_DEPTH, Constraint, ResetNoise, RewardConfig
 from dragmesh2_jax.task.expert import RELATIVE_LOAD
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
@@ -169,6 +168,9 @@ EITHER_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "holds"}
 ON_TARGET: dict[str, Any] = {"task.residual_on": "target"}
 SATURATION_BUDGET = 0.2  # the share of steps a saturation bound allows (``plausible``'s on the wrist, ``within``'s)
 PENETRATION_LIMIT = MAX_DEPTH  # m: the bound on the deepest hand-object contact
+#: m: the expert's depth bound in the starts choice, half a millimetre below PENETRATION_LIMIT: over experts within
+#: 1.8-2.0 mm the policy pressed 0.2-0.3 mm deeper with every seed (RULE.md, levers 26-27).
+CHOICE_MARGIN_DEPTH = 0.0015
 
 
 def within(saturation_budget: float, *more: Constraint, load_budget: float = 0.05) -> dict[str, Any]:
@@ -424,6 +426,12 @@ METHODS = {m.name: m for m in (
            "checkpoint", {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01), "task.damping_log": True,
                           "task.expert_wrap": True, "task.expert_placement": "starts"},
            status="experimental", evidence="results/screen/RULE.md (twenty-seventh lever)"),
+    Method("hold_blind_residual_chosen_margin", "hold_blind_residual_chosen_tight with its expert's grasp chosen "
+           "within 1.5 mm (task.expert_depth), half a millimetre for the policy's own press below the 2 mm bound; 150 "
+           "epochs, final checkpoint", {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01),
+                                        "task.damping_log": True, "task.expert_wrap": True,
+                                        "task.expert_placement": "starts", "task.expert_depth": CHOICE_MARGIN_DEPTH},
+           status="experimental", evidence="results/screen/RULE.md (twenty-eighth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

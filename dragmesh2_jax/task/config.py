@@ -109,6 +109,8 @@ ExpertGrasp = Literal["seated", "planned"]
 #: then the load held from all of them, then the lighter pull (``task.choice``; a choice made from the exact grasp
 #: keeps grasps that let go from perturbed ones: results/screen/RULE.md, twenty-sixth lever).
 ExpertPlacement = Literal["first", "holds", "starts"]
+#: m: the deepest hand-object contact the issue "Hold on and follow" allows (2 mm).
+MAX_DEPTH = 0.002
 #: The physics the generated trajectory is planned, seated and chosen in (``expert_plan_contact``): "scene", the run's
 #: own; "mujoco", MuJoCo's default object contacts and the hand's default finger drives (``SceneConfig()``'s), the
 #: trajectory a run on those makes. Its soft contacts seat the hand 4-9 mm into the handle; run on the hand's stiff
@@ -362,6 +364,9 @@ class TaskConfig:
     """beyond the paper, the grasp the generated trajectory holds the handle with (ExpertGrasp's comment)"""
     expert_placement: ExpertPlacement = "first"
     """beyond the paper, which palm placement the generated trajectory grasps with (ExpertPlacement's comment)"""
+    expert_depth: float = MAX_DEPTH
+    """m, beyond the paper, under expert_placement "starts": the deepest contact at x1 a kept grasp may reach from the
+    choice's starts (below MAX_DEPTH: a margin for the policy's own press; results/screen/RULE.md, lever 28)"""
     expert_plan_contact: ExpertPlanContact = "scene"
     """beyond the paper, the physics the generated trajectory is planned in (ExpertPlanContact's comment)"""
     expert_wrap: bool = False
@@ -416,6 +421,8 @@ class TaskConfig:
             raise DragMeshError(f"friction_range must satisfy 0 <= lo <= hi, got {self.friction_range}")
         if self.contacts is not None and self.contacts < 1:
             raise DragMeshError(f"contacts per world must be >= 1, got {self.contacts}")
+        if not 0 < self.expert_depth < math.inf:
+            raise DragMeshError(f"expert_depth must be finite and > 0 m, got {self.expert_depth}")
         if not 0 <= self.grip_closure < math.inf:
             raise DragMeshError(f"grip_closure must be finite and >= 0 rad, got {self.grip_closure}")
         if not 0 < self.residual_scale <= 1 or (self.residual_scale != 1 and not self.expert_prior):

@@ -1,6 +1,8 @@
 """The expert's grasp chosen by what the evaluation measures: candidates replayed from clear starts, kept by the depth,
 then the load held from every start, then the lighter pull (``task.choice``)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -8,7 +10,7 @@ from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.task import choice
-from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.config import MAX_DEPTH, TaskConfig
 
 
 def test_a_part_open_start_replays_the_drag_from_where_the_plan_reaches_the_part():
@@ -38,9 +40,26 @@ def test_the_choice_keeps_the_grasp_within_the_depth_over_one_listed_first_and_r
     scores = kept.header["generator"]["choice"]["scores"]
     assert kept.header["generator"]["choice"]["kept"] == 1 and kept.frames == candidates[1][1].frames
     assert [s["planned_in"] for s in scores] == ["mujoco", "hand"]
-    assert not scores[0]["within_depth"] and scores[0]["deepest_m"] > choice.MAX_DEPTH
+    assert not scores[0]["within_depth"] and scores[0]["deepest_m"] > MAX_DEPTH
     assert scores[1]["within_depth"] and scores[1]["held"] >= 8.0  # the drawer opens at x8 from every start
-    assert choice.chosen(scene, candidates, config).header == kept.header  # read back from the cache
+    assert kept.header["generator"]["choice"]["depth_bound_m"] == MAX_DEPTH
+    assert choice.chosen(scene, candidates, config).header == kept.header  # the scores read back from the cache
+
+
+def test_a_tighter_depth_bound_ranks_the_cached_scores_again_without_replaying_a_candidate(
+        drawer_candidates, tmp_path, monkeypatch):
+    monkeypatch.setenv("DRAGMESH2_CACHE", str(tmp_path))
+    scene, candidates = drawer_candidates
+    config = TaskConfig(backend="mujoco", expert_placement="starts")
+    depths = [s["deepest_m"] for s in choice.chosen(scene, candidates, config).header["generator"]["choice"]["scores"]]
+
+    def replayed(*_):
+        raise AssertionError("a candidate replayed although its score is cached")
+    monkeypatch.setattr(choice, "score", replayed)
+    tight = replace(config, expert_depth=min(depths) / 2)  # no candidate within: held, then the pull, decide
+    kept = choice.chosen(scene, candidates, tight).header["generator"]["choice"]
+    assert kept["depth_bound_m"] == min(depths) / 2 and not any(s["within_depth"] for s in kept["scores"])
+    assert [s["deepest_m"] for s in kept["scores"]] == depths
 
 
 def test_a_task_under_the_starts_choice_scores_each_placement_alone_and_keeps_one_within_the_depth():
