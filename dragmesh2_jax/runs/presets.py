@@ -432,6 +432,14 @@ METHODS = {m.name: m for m in (
                                         "task.damping_log": True, "task.expert_wrap": True,
                                         "task.expert_placement": "starts", "task.expert_depth": CHOICE_MARGIN_DEPTH},
            status="experimental", evidence="results/screen/RULE.md (twenty-eighth lever)"),
+    Method("hold_blind_residual_from_start", "hold_blind_residual_chosen_margin with the margin ranked after the load "
+           "held (task.expert_placement starts_hold) and the drag begun where the part began, then at its own pace "
+           "(task.prior_from_start for task.prior_floor: a part pulled ahead does not take the drag along); 150 "
+           "epochs, final checkpoint", {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01),
+                                "task.damping_log": True, "task.expert_wrap": True, "task.prior_floor": False,
+                                "task.prior_from_start": True, "task.expert_placement": "starts_hold",
+                                "task.expert_depth": CHOICE_MARGIN_DEPTH},
+           status="experimental", evidence="results/screen/RULE.md (twenty-ninth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

@@ -8,8 +8,9 @@ seated where it seats, planned in each physics the task plans in) is replayed as
 clear starts of its own, and ranked: first whether its deepest contact at x1 stays within ``TaskConfig.expert_depth``
 (the issue's ``task.config.MAX_DEPTH``, or below it a margin for the policy's own press), then the highest of
 ``CHOICE_DAMPINGS`` at which it opens the part from every start, then its lighter x1 pull. Ties keep the earlier
-candidate (the run's own contacts before MuJoCo's; the hooks before the wraps). The scores are cached, the ranking is
-not: a run with another depth bound replays nothing."""
+candidate (the run's own contacts before MuJoCo's; the hooks before the wraps). Under "starts_hold" the issue's
+bound comes first, then the load held, then ``expert_depth``, then the pull: a margin that never costs the hold. The
+scores are cached, the ranking is not: a run with another depth bound replays nothing."""
 
 from __future__ import annotations
 
@@ -23,12 +24,14 @@ from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import atomic_write_json, cache_dir, hash_files
 from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.scene import Scene
-from dragmesh2_jax.task.config import ResetNoise, TaskConfig
+from dragmesh2_jax.task.config import MAX_DEPTH, ResetNoise, TaskConfig
 from dragmesh2_jax.task.env import substeps_of
 from dragmesh2_jax.task.expert import reachable_targets
 from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.schema import Trajectory
 
+#: The placements chosen here (``TaskConfig.expert_placement``).
+PLACEMENTS = ("starts", "starts_hold")
 #: The clear starts each candidate is replayed from, and their seed (not the evaluation's bank, nor training's).
 CHOICE_STARTS, CHOICE_SEED = 8, 7
 #: The damping multipliers tried in order, up to the first at which a start is not opened.
@@ -89,8 +92,12 @@ def chosen(scene: Scene, candidates: list[tuple[str, Trajectory]], config: TaskC
         raise DragMeshError(f"{scene.obj.folder}: no placement passes the generator's gate to choose from")
     scores = [{**s, "within_depth": s["deepest_m"] <= config.expert_depth}
               for s in scores_of(scene, candidates, config)]
-    best = max(range(len(candidates)), key=lambda i: (scores[i]["within_depth"], scores[i]["held"],
-                                                      -scores[i]["load_n"], -i))
+    def rank(i: int) -> tuple:
+        s = scores[i]
+        if config.expert_placement == "starts_hold":
+            return s["deepest_m"] <= MAX_DEPTH, s["held"], s["within_depth"], -s["load_n"], -i
+        return s["within_depth"], s["held"], -s["load_n"], -i
+    best = max(range(len(candidates)), key=rank)
     traj = candidates[best][1]
     choice = {"kept": best, "depth_bound_m": config.expert_depth, "scores": scores}
     return Trajectory(frames=traj.frames, header={**traj.header, "generator": {**traj.header["generator"],

@@ -107,10 +107,10 @@ ExpertGrasp = Literal["seated", "planned"]
 #: placement where it holds more than every seated one (generator 1.4: the recipe's expert, RESULTS.md §3); "starts",
 #: every placement in every physics it is planned in, each replayed from a few clear starts and kept by the depth,
 #: then the load held from all of them, then the lighter pull (``task.choice``; a choice made from the exact grasp
-#: keeps grasps that let go from perturbed ones: results/screen/RULE.md, twenty-sixth lever).
-ExpertPlacement = Literal["first", "holds", "starts"]
-#: m: the deepest hand-object contact the issue "Hold on and follow" allows (2 mm).
-MAX_DEPTH = 0.002
+#: keeps grasps that let go from perturbed ones: results/screen/RULE.md, twenty-sixth lever); "starts_hold", as
+#: "starts" with ``expert_depth`` ranked after the load held, MAX_DEPTH still first (lever 29).
+ExpertPlacement = Literal["first", "holds", "starts", "starts_hold"]
+MAX_DEPTH = 0.002  # m: the deepest hand-object contact the issue "Hold on and follow" allows
 #: The physics the generated trajectory is planned, seated and chosen in (``expert_plan_contact``): "scene", the run's
 #: own; "mujoco", MuJoCo's default object contacts and the hand's default finger drives (``SceneConfig()``'s), the
 #: trajectory a run on those makes. Its soft contacts seat the hand 4-9 mm into the handle; run on the hand's stiff
@@ -358,6 +358,10 @@ class TaskConfig:
     planned joint reaches the part's joint now, so that a start with the part open is not pulled back to the closed
     part's grasp (from clear starts on a hard door at x8 the time-indexed drag presses the fingers 3.5 mm into the
     handle in its first steps, from the part's step 1.9 mm: results/screen/RULE.md, nineteenth lever)"""
+    prior_from_start: bool = False
+    """beyond the paper, under expert_prior: the drag begun at the first step whose planned joint reaches the part's
+    joint where the episode began, then at its own pace, so that a part the residual pulls ahead does not take the drag
+    along, as prior_floor's (also set) still would (it lets a residual rush a light drawer: RULE.md, lever 29)"""
     expert_load_unit: ExpertUnit = "grasp"
     """beyond the paper, the unit of the relative_load measure (EXPERT_UNITS' comment)"""
     expert_grasp: ExpertGrasp = "planned"
@@ -365,8 +369,8 @@ class TaskConfig:
     expert_placement: ExpertPlacement = "first"
     """beyond the paper, which palm placement the generated trajectory grasps with (ExpertPlacement's comment)"""
     expert_depth: float = MAX_DEPTH
-    """m, beyond the paper, under expert_placement "starts": the deepest contact at x1 a kept grasp may reach from the
-    choice's starts (below MAX_DEPTH: a margin for the policy's own press; results/screen/RULE.md, lever 28)"""
+    """m, beyond the paper, under expert_placement "starts" or "starts_hold": the deepest contact at x1 a kept grasp
+    may reach from the choice's starts (below MAX_DEPTH: a margin for the policy's own press; RULE.md, lever 28)"""
     expert_plan_contact: ExpertPlanContact = "scene"
     """beyond the paper, the physics the generated trajectory is planned in (ExpertPlanContact's comment)"""
     expert_wrap: bool = False
@@ -430,8 +434,8 @@ class TaskConfig:
                                 f"{self.residual_scale}")
         if self.prior_lead is not None and not (0 < self.prior_lead < math.inf and self.expert_prior):
             raise DragMeshError(f"prior_lead must be finite and > 0, and only with expert_prior, got {self.prior_lead}")
-        if self.prior_floor and not self.expert_prior:
-            raise DragMeshError("prior_floor only with expert_prior (it moves the expert drag's step)")
+        if (self.prior_floor or self.prior_from_start) and not self.expert_prior:
+            raise DragMeshError("prior_floor and prior_from_start only with expert_prior (they move the drag's step)")
         if self.residual_on not in RESIDUAL_ONS or (self.residual_on != "action" and not self.expert_prior):
             raise DragMeshError(f"residual_on must be one of {', '.join(RESIDUAL_ONS)}, and other than action only "
                                 f"with expert_prior, got {self.residual_on!r}")

@@ -116,8 +116,7 @@ class TaskData:
 
 
 def trajectory_joint(obj, traj: Trajectory) -> str:
-    """The name of the object joint ``traj`` moves (its target), with a clear error if ``traj`` was not made for
-    ``obj``."""
+    """The name of the object joint ``traj`` moves (its target); a clear error if ``traj`` is not ``obj``'s."""
     h = traj.header
     if h.get("object_id") not in (None, obj.object_id):
         raise DragMeshError(f"trajectory is for object {h['object_id']}, not {obj.object_id}")
@@ -355,6 +354,7 @@ class PullTask:
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
             "stall": jnp.int32(0), "cooldown": jnp.int32(0),
+            **({"q0": k.obj_q.astype(jnp.float32)} if c.prior_from_start else {}),  # where expert.drag_step begins
         }
         obs = Obs(state=state_obs(c, k, self.params), history=history, aux=self._aux(info),
                   privileged=self._privileged(info, k), step=info["step"])
@@ -382,7 +382,7 @@ class PullTask:
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state)
         if self.config.expert_prior:
-            ctrl, applied, own = residual_step(self.config, self.params, state.info["step"], k0.hand_q, k0.obj_q, a)
+            ctrl, applied, own = residual_step(self.config, self.params, state.info, k0.hand_q, k0.obj_q, a)
             return self._advance(state, ctrl, applied, k0.palm, own)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)

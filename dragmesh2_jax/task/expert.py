@@ -58,16 +58,21 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
     return held_targets(traj, config)
 
 
-def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params) -> jnp.ndarray:
+def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params, q0: jnp.ndarray | None = None
+              ) -> jnp.ndarray:
     """The step of the expert drag whose target the prior applies at episode step ``step``: that step, under
     ``config.prior_floor`` at least the first whose planned joint (``params.schedule``, the task's, made monotone)
-    reaches the part's joint ``q`` now, and under ``config.prior_lead`` at most the first whose planned joint lies
-    prior_lead x the part's range past it."""
-    if not config.prior_floor and config.prior_lead is None:
+    reaches the part's joint ``q`` now, under ``config.prior_from_start`` that step after the first whose planned
+    joint reaches ``q0``, the part's joint where the episode began, and under ``config.prior_lead`` at most the first
+    whose planned joint lies prior_lead x the part's range past ``q``."""
+    if not (config.prior_floor or config.prior_from_start) and config.prior_lead is None:
         return step  # time-indexed: nothing of the plan is read
     planned = jax.lax.cummax(params.schedule)  # sorted, as searchsorted needs (a plan that holds a step stays put)
+    last = planned.shape[0] - 1
     if config.prior_floor:
-        step = jnp.maximum(step, jnp.minimum(jnp.searchsorted(planned, q, side="left"), planned.shape[0] - 1))
+        step = jnp.maximum(step, jnp.minimum(jnp.searchsorted(planned, q, side="left"), last))
+    if config.prior_from_start:
+        step = jnp.minimum(step + jnp.searchsorted(planned, q0, side="left"), last)
     if config.prior_lead is None:
         return step
     lead = config.prior_lead * (params.q_goal - params.q_start)
@@ -82,12 +87,13 @@ def residual_gain(config: TaskConfig) -> np.ndarray:
     return gain
 
 
-def residual_step(config: TaskConfig, params, step: jnp.ndarray, hand_q: jnp.ndarray, obj_q: jnp.ndarray,
+def residual_step(config: TaskConfig, params, info: dict, hand_q: jnp.ndarray, obj_q: jnp.ndarray,
                   a: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray, jnp.ndarray]:
     """(the hand's PD target, the applied action, the action PICA's terms charge) of a residual ``a`` in [-1, 1] over
-    the expert drag at episode step ``step`` (``config.residual_on``: added to the drag's increment within the bound,
-    the sum charged; or offsetting its target, the residual charged)."""
-    drag, gain = params.drag[drag_step(config, step, obj_q, params)], residual_gain(config)
+    the expert drag at the episode's step (``info``: the task state's) (``config.residual_on``: added to the drag's
+    increment within the bound, the sum charged; or offsetting its target, the residual charged)."""
+    step = drag_step(config, info["step"], obj_q, params, info.get("q0"))
+    drag, gain = params.drag[step], residual_gain(config)
     if config.residual_on == "target":
         ctrl = jnp.clip(drag + config.alpha * gain * a, params.hand_lo, params.hand_hi)
         return ctrl, jnp.clip((ctrl - hand_q) / config.alpha, -1.0, 1.0), a

@@ -51,19 +51,20 @@ def plan_scene_config(config: TaskConfig, scene_config: SceneConfig) -> SceneCon
 def generated_as_planned(config: TaskConfig) -> bool:
     """Whether :func:`generated` returns the generator's trajectory in the plan scene as it is: no choice between
     physics or among placements made here, and no rest."""
-    return config.expert_plan_contact != "holds" and config.expert_placement != "starts" and not config.expert_rest
+    return (config.expert_plan_contact != "holds" and config.expert_placement not in choice.PLACEMENTS
+            and not config.expert_rest)
 
 
 def generated(obj, scene, config: TaskConfig, slots: int | None = None) -> Trajectory:
     """The task's trajectory, generated under ``config``'s grasp in ``plan_scene_config``'s scene; under
     ``expert_plan_contact`` "holds" in both, the one planned in ``scene`` kept unless the other, replayed in
     ``scene``, holds the part at a higher damping (``trajectory.generator.holds``); under ``expert_placement``
-    "starts" each placement generated alone in each, the one kept by ``task.choice``; under ``expert_rest`` the one
-    kept rested on ``scene``'s contacts (``trajectory.rest``)."""
+    "starts" (or "starts_hold") each placement generated alone in each, the one kept by ``task.choice``; under
+    ``expert_rest`` the one kept rested on ``scene``'s contacts (``trajectory.rest``)."""
     params = generator_params(config)
     planned_in = plan_scene_config(config, scene.config)
     other = scene if planned_in == scene.config else build_scene(obj, planned_in, slots=slots)
-    if config.expert_placement == "starts":
+    if config.expert_placement in choice.PLACEMENTS:
         where = {"scene": [scene], "mujoco": [other], "holds": [scene, other]}[config.expert_plan_contact]
         each = [(s.config.object_contact, generate(obj, replace(params, placements=(p,)), scene=s))
                 for s in where for p in params.placements]

@@ -60,6 +60,8 @@ def test_a_tighter_depth_bound_ranks_the_cached_scores_again_without_replaying_a
     kept = choice.chosen(scene, candidates, tight).header["generator"]["choice"]
     assert kept["depth_bound_m"] == min(depths) / 2 and not any(s["within_depth"] for s in kept["scores"])
     assert [s["deepest_m"] for s in kept["scores"]] == depths
+    held_first = choice.chosen(scene, candidates, replace(tight, expert_placement="starts_hold"))
+    assert held_first.header["generator"]["choice"]["kept"] == 1  # the 2 mm still first, then the load held
 
 
 def test_a_task_under_the_starts_choice_scores_each_placement_alone_and_keeps_one_within_the_depth():

@@ -168,13 +168,33 @@ def test_the_drag_step_under_a_floor_is_never_behind_the_part():
         TaskConfig(prior_floor=True)
 
 
+def test_the_drag_from_the_start_begins_where_the_part_began_and_keeps_its_own_pace_after():
+    """prior_from_start: the episode's step after the first whose planned joint (made monotone) reaches the part's
+    joint at the episode's start, the plan's last past its end; a part pulled ahead does not move it (prior_floor's
+    would, where also set), and a lead still holds it back for a part that lags."""
+    params = PullTask.__new__(PullTask)  # only its three fields are read
+    params.schedule, params.q_start, params.q_goal = jnp.asarray([0.0, 0.1, 0.3, 0.2, 0.5, 0.7, 0.9, 1.0]), 0.0, 2.0
+    start = TaskConfig(expert_prior=True, prior_from_start=True)
+    step = lambda config, k, q, q0: int(drag_step(config, jnp.int32(k), jnp.float32(q), params,  # noqa: E731
+                                                  jnp.float32(q0)))
+    assert step(start, 0, 0.45, 0.45) == 4 and step(start, 2, 0.45, 0.45) == 6  # from the plan's 0.5 on, step by step
+    assert step(start, 1, 0.9, 0.0) == 1  # a part pulled ahead: the drag keeps its pace
+    assert step(start, 3, 0.0, 0.8) == 7  # past the plan's end: its last
+    assert step(dataclasses.replace(start, prior_lead=0.1), 5, 0.0, 0.0) == 2  # the lead's hold on a lagging part
+    assert step(dataclasses.replace(start, prior_floor=True), 1, 0.9, 0.0) == 6  # the floor, also set, still follows
+    with pytest.raises(DragMeshError, match="prior_from_start"):
+        TaskConfig(prior_from_start=True)
+
+
 def test_a_prior_with_a_floor_does_not_push_a_part_open_start_back(door):
     """From a start with the door part-open, at x8, the time-indexed drag's first targets are the closed door's
-    grasp, so its prior pushes the door back; with prior_floor the hand's target starts where the door is."""
+    grasp, so its prior pushes the door back; with prior_floor (or prior_from_start) the hand's target starts where
+    the door is."""
     noise = ResetNoise(wrist_pos=0.0, wrist_rot=0.0, fingers=0.0, object_q=0.5, bank=1, seed=3)
     config = dataclasses.replace(door.config, expert_prior=True, residual_on="target", reset_noise=noise)
     timed = PullTask(door.scene, door.traj, config)
     floored = PullTask(door.scene, door.traj, dataclasses.replace(config, prior_floor=True))
+    from_start = PullTask(door.scene, door.traj, dataclasses.replace(config, prior_from_start=True))
 
     def run(task):
         s = task.reset(jax.random.PRNGKey(0), jnp.float32(8.0))
@@ -182,8 +202,10 @@ def test_a_prior_with_a_floor_does_not_push_a_part_open_start_back(door):
         return jax.lax.scan(lambda s, _: (s := task.step(s, jnp.zeros(51)), s.metrics["q"] - q0), s, None,
                             length=12)[1]
 
-    back_timed, back_floored = jax.device_get(jax.jit(lambda: (run(timed), run(floored)))())
+    back_timed, back_floored, back_from = jax.device_get(jax.jit(lambda: (run(timed), run(floored),
+                                                                         run(from_start)))())
     assert back_timed.min() < -0.01 and back_floored.min() > -0.002, (back_timed.min(), back_floored.min())
+    assert back_from.min() > -0.002, back_from.min()
 
 
 def test_a_yielding_prior_waits_for_a_part_that_lags_and_follows_one_that_keeps_up(door):
