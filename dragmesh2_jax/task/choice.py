@@ -40,7 +40,8 @@ CHOICE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
 
 def from_part(targets: np.ndarray, schedule: np.ndarray, obj_q: float) -> np.ndarray:
     """``targets`` from the first step whose planned part position reaches ``obj_q`` (a part-open start: the drag
-    never behind the part, as ``prior_floor`` holds it), the last one held to the same length."""
+    begun where the part is, as ``prior_from_start`` begins it and ``prior_floor`` holds it), the last one held to the
+    same length."""
     k = min(int(np.searchsorted(np.maximum.accumulate(schedule), obj_q)), len(targets) - 1)
     return targets[np.minimum(np.arange(len(targets)) + k, len(targets) - 1)]
 
