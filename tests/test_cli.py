@@ -156,7 +156,7 @@ FLAG_VALUES = {
              "expert_load_unit": "start", "residual_scale": 0.5, "residual_scope": "translation",
              "reset_noise": ResetNoise(wrist_pos=0.004, bank=8), "expert_grasp": "seated", "grip_closure": 0.03,
              "expert_rest": True, "expert_wrap": True, "expert_placement": "holds", "expert_depth": 0.0015,
-             "prior_lead": 0.2, "prior_floor": True, "prior_from_start": True,
+             "prior_lead": 0.2, "prior_floor": True, "prior_from_start": True, "residual_ramp": 5,
              "expert_plan_contact": "mujoco", "residual_on": "target"},
     "scene": {"scale": 0.45, "object_pos": (0.55, 0.0, 0.6), "timestep": 1 / 120, "damping": 20.0, "armature": 0.01,
               "link_areal_density": 4.0, "friction": 1.2, "collide": "all", "collision_radius": 0.3,

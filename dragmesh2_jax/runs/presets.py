@@ -168,6 +168,9 @@ EITHER_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "holds"}
 ON_TARGET: dict[str, Any] = {"task.residual_on": "target"}
 SATURATION_BUDGET = 0.2  # the share of steps a saturation bound allows (``plausible``'s on the wrist, ``within``'s)
 PENETRATION_LIMIT = MAX_DEPTH  # m: the bound on the deepest hand-object contact
+#: control steps: the residual eased in from each episode's start (1/6 s). Its constant offset applied at once jolted
+#: the wrist: 45780 at x1 pulled 51 N at step 2 under lever 29, 28 N eased over 10 steps (prior 26; RULE.md, lever 30).
+RESIDUAL_RAMP = 10
 #: m: the expert's depth bound in the starts choice, half a millimetre below PENETRATION_LIMIT: over experts within
 #: 1.8-2.0 mm the policy pressed 0.2-0.3 mm deeper with every seed (RULE.md, levers 26-27).
 CHOICE_MARGIN_DEPTH = 0.0015
@@ -440,6 +443,13 @@ METHODS = {m.name: m for m in (
                                 "task.prior_from_start": True, "task.expert_placement": "starts_hold",
                                 "task.expert_depth": CHOICE_MARGIN_DEPTH},
            status="experimental", evidence="results/screen/RULE.md (twenty-ninth lever)"),
+    Method("hold_blind_residual_eased", "hold_blind_residual_from_start with the residual eased in over an episode's "
+           "first 10 steps (task.residual_ramp); 150 epochs, final checkpoint",
+           {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01), "task.damping_log": True,
+            "task.expert_wrap": True, "task.prior_floor": False, "task.prior_from_start": True,
+            "task.expert_placement": "starts_hold", "task.expert_depth": CHOICE_MARGIN_DEPTH,
+            "task.residual_ramp": RESIDUAL_RAMP},
+           status="experimental", evidence="results/screen/RULE.md (thirtieth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

@@ -112,12 +112,10 @@ ExpertGrasp = Literal["seated", "planned"]
 ExpertPlacement = Literal["first", "holds", "starts", "starts_hold"]
 MAX_DEPTH = 0.002  # m: the deepest hand-object contact the issue "Hold on and follow" allows
 #: The physics the generated trajectory is planned, seated and chosen in (``expert_plan_contact``): "scene", the run's
-#: own; "mujoco", MuJoCo's default object contacts and the hand's default finger drives (``SceneConfig()``'s), the
-#: trajectory a run on those makes. Its soft contacts seat the hand 4-9 mm into the handle; run on the hand's stiff
-#: contacts, that seat is a preload that holds the part where a seat planned on them grips with 5-6 N (RESULTS.md §3);
+#: own; "mujoco", MuJoCo's default object contacts and the hand's default finger drives (``SceneConfig()``'s), whose
+#: soft contacts seat the hand 4-9 mm into the handle: on the hand's stiff contacts a preload (RESULTS.md §3);
 #: "holds", both, the run's own kept unless MuJoCo's, replayed on the run's physics, holds the part at a higher damping
-#: (the firm seat on a drawer, which the soft seat presses 7 mm deep; the soft seat on a door the firm one lets go of:
-#: results/screen/RULE.md, seventeenth lever).
+#: (the firm seat on a drawer; the soft seat on a door the firm one lets go of: RULE.md, seventeenth lever).
 ExpertPlanContact = Literal["scene", "mujoco", "holds"]
 EXPERT_UNITS = get_args(ExpertUnit)
 #: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
@@ -349,6 +347,9 @@ class TaskConfig:
     """beyond the paper, the channels residual_scale narrows (RESIDUAL_SCOPES' comment)"""
     residual_on: ResidualOn = "action"
     """beyond the paper, under expert_prior: what the policy's residual adds to (ResidualOn's comment)"""
+    residual_ramp: int = 0
+    """control steps, beyond the paper, under expert_prior: the residual eased in from each episode's start, its gain
+    rising linearly to 1 over these steps (0: at once; a constant offset applied at once jolts the wrist: lever 30)"""
     prior_lead: float | None = None
     """beyond the paper, under expert_prior: a pace that yields, the drag's step held back to the first whose planned
     joint lies this fraction of the part's range past the part's joint now, so the hand's target waits for a part that
@@ -359,9 +360,8 @@ class TaskConfig:
     part's grasp (from clear starts on a hard door at x8 the time-indexed drag presses the fingers 3.5 mm into the
     handle in its first steps, from the part's step 1.9 mm: results/screen/RULE.md, nineteenth lever)"""
     prior_from_start: bool = False
-    """beyond the paper, under expert_prior: the drag begun at the first step whose planned joint reaches the part's
-    joint where the episode began, then at its own pace, so that a part the residual pulls ahead does not take the drag
-    along, as prior_floor's (also set) still would (it lets a residual rush a light drawer: RULE.md, lever 29)"""
+    """beyond the paper, under expert_prior: the drag begun where the part began, then at its own pace: a part pulled
+    ahead does not take the drag along, as prior_floor (also set) would (a rush on a light drawer: RULE.md, lever 29)"""
     expert_load_unit: ExpertUnit = "grasp"
     """beyond the paper, the unit of the relative_load measure (EXPERT_UNITS' comment)"""
     expert_grasp: ExpertGrasp = "planned"
@@ -434,6 +434,8 @@ class TaskConfig:
                                 f"{self.residual_scale}")
         if self.prior_lead is not None and not (0 < self.prior_lead < math.inf and self.expert_prior):
             raise DragMeshError(f"prior_lead must be finite and > 0, and only with expert_prior, got {self.prior_lead}")
+        if self.residual_ramp < 0 or (self.residual_ramp and not self.expert_prior):
+            raise DragMeshError(f"residual_ramp must be >= 0, and above 0 only with expert_prior: {self.residual_ramp}")
         if (self.prior_floor or self.prior_from_start) and not self.expert_prior:
             raise DragMeshError("prior_floor and prior_from_start only with expert_prior (they move the drag's step)")
         if self.residual_on not in RESIDUAL_ONS or (self.residual_on != "action" and not self.expert_prior):

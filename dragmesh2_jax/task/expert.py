@@ -90,10 +90,13 @@ def residual_gain(config: TaskConfig) -> np.ndarray:
 def residual_step(config: TaskConfig, params, info: dict, hand_q: jnp.ndarray, obj_q: jnp.ndarray,
                   a: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray, jnp.ndarray]:
     """(the hand's PD target, the applied action, the action PICA's terms charge) of a residual ``a`` in [-1, 1] over
-    the expert drag at the episode's step (``info``: the task state's) (``config.residual_on``: added to the drag's
-    increment within the bound, the sum charged; or offsetting its target, the residual charged)."""
+    the expert drag at the episode's step (``info``: the task state's; under ``config.residual_ramp`` the residual
+    eased in from the episode's start) (``config.residual_on``: added to the drag's increment within the bound, the sum
+    charged; or offsetting its target, the residual charged: its own output, as the policy chose it)."""
     step = drag_step(config, info["step"], obj_q, params, info.get("q0"))
     drag, gain = params.drag[step], residual_gain(config)
+    if config.residual_ramp:
+        gain = gain * jnp.minimum(1.0, (info["step"] + 1.0) / config.residual_ramp)
     if config.residual_on == "target":
         ctrl = jnp.clip(drag + config.alpha * gain * a, params.hand_lo, params.hand_hi)
         return ctrl, jnp.clip((ctrl - hand_q) / config.alpha, -1.0, 1.0), a

@@ -15,7 +15,7 @@ from dragmesh2_jax.runs.build import load_task, task_of
 from dragmesh2_jax.runs.spec import method_defaults
 from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig, TaskConfig
 from dragmesh2_jax.task.env import PullTask, applied_action, make_batched
-from dragmesh2_jax.task.expert import LOAD_DAMPINGS, drag_step, expert_replay, load_unit
+from dragmesh2_jax.task.expert import LOAD_DAMPINGS, drag_step, expert_replay, load_unit, residual_step
 from dragmesh2_jax.task.starts import reset_starts
 
 DOOR = str(packaged_object("door_cabinet_0000"))
@@ -184,6 +184,26 @@ def test_the_drag_from_the_start_begins_where_the_part_began_and_keeps_its_own_p
     assert step(dataclasses.replace(start, prior_floor=True), 1, 0.9, 0.0) == 6  # the floor, also set, still follows
     with pytest.raises(DragMeshError, match="prior_from_start"):
         TaskConfig(prior_from_start=True)
+
+
+def test_an_eased_residual_offsets_the_drags_target_by_a_share_of_itself_that_grows_to_all_of_it():
+    """residual_ramp: the residual's gain rises linearly from the episode's start, 1/R at its first step, whole from
+    step R - 1 on; the output charged is the policy's own, as it chose it."""
+    params = PullTask.__new__(PullTask)  # only the fields residual_step reads
+    params.drag, params.hand_lo, params.hand_hi = jnp.zeros((8, 51)), -jnp.ones(51), jnp.ones(51)
+    params.schedule, params.q_start, params.q_goal = jnp.linspace(0.0, 1.0, 8), 0.0, 1.0
+    config = TaskConfig(expert_prior=True, residual_on="target", residual_ramp=4)
+    a = jnp.full(51, 0.8)
+    offset = lambda k: float(residual_step(config, params, {"step": jnp.int32(k)}, jnp.zeros(51), jnp.float32(0.0),  # noqa: E731
+                                           a)[0][0])
+    whole = config.alpha * 0.8
+    assert offset(0) == pytest.approx(whole / 4) and offset(1) == pytest.approx(whole / 2)
+    assert offset(3) == pytest.approx(whole) and offset(6) == pytest.approx(whole)
+    assert float(residual_step(config, params, {"step": jnp.int32(0)}, jnp.zeros(51), jnp.float32(0.0), a)[2][0]) == \
+        pytest.approx(0.8)
+    for bad in ({"residual_ramp": 4}, {"residual_ramp": -1, "expert_prior": True}):
+        with pytest.raises(DragMeshError, match="residual_ramp"):
+            TaskConfig(**bad)
 
 
 def test_a_prior_with_a_floor_does_not_push_a_part_open_start_back(door):
