@@ -450,6 +450,14 @@ METHODS = {m.name: m for m in (
             "task.expert_placement": "starts_hold", "task.expert_depth": CHOICE_MARGIN_DEPTH,
             "task.residual_ramp": RESIDUAL_RAMP},
            status="experimental", evidence="results/screen/RULE.md (thirtieth lever)"),
+    Method("hold_blind_residual_eased_fine", "hold_blind_residual_eased with the residual's pull at an eighth of the "
+           "action range (a quarter before): its translation 0.125 x alpha from the drag's target at most; 150 "
+           "epochs, final checkpoint",
+           {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01), **reach(0.125, "translation"),
+            "task.damping_log": True, "task.expert_wrap": True, "task.prior_floor": False,
+            "task.prior_from_start": True, "task.expert_placement": "starts_hold",
+            "task.expert_depth": CHOICE_MARGIN_DEPTH, "task.residual_ramp": RESIDUAL_RAMP},
+           status="experimental", evidence="results/screen/RULE.md (thirty-first lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
