@@ -168,8 +168,7 @@ EITHER_SEAT: dict[str, Any] = {**FIRM_GRIP, "task.expert_plan_contact": "holds"}
 ON_TARGET: dict[str, Any] = {"task.residual_on": "target"}
 SATURATION_BUDGET = 0.2  # the share of steps a saturation bound allows (``plausible``'s on the wrist, ``within``'s)
 PENETRATION_LIMIT = MAX_DEPTH  # m: the bound on the deepest hand-object contact
-#: control steps: the residual eased in from each episode's start (1/6 s). Its constant offset applied at once jolted
-#: the wrist: 45780 at x1 pulled 51 N at step 2 under lever 29, 28 N eased over 10 steps (prior 26; RULE.md, lever 30).
+#: control steps (1/6 s): the residual eased in; applied at once it jolted the wrist (RULE.md, lever 30: 51 -> 28 N).
 RESIDUAL_RAMP = 10
 #: m: the expert's depth bound in the starts choice, half a millimetre below PENETRATION_LIMIT: over experts within
 #: 1.8-2.0 mm the policy pressed 0.2-0.3 mm deeper with every seed (RULE.md, levers 26-27).
@@ -451,8 +450,7 @@ METHODS = {m.name: m for m in (
             "task.residual_ramp": RESIDUAL_RAMP},
            status="experimental", evidence="results/screen/RULE.md (thirtieth lever)"),
     Method("hold_blind_residual_eased_fine", "hold_blind_residual_eased with the residual's pull at an eighth of the "
-           "action range (a quarter before): its translation 0.125 x alpha from the drag's target at most; 150 "
-           "epochs, final checkpoint",
+           "action range (a quarter before); 150 epochs, final checkpoint",
            {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01), **reach(0.125, "translation"),
             "task.damping_log": True, "task.expert_wrap": True, "task.prior_floor": False,
             "task.prior_from_start": True, "task.expert_placement": "starts_hold",
