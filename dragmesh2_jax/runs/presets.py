@@ -202,6 +202,16 @@ INSIDE: dict[str, Any] = {"ppo.bounds_at": 0.9, "ppo.bounds_coef": 10.0}
 #: The twentieth lever's tree but its constraints: the seat that holds, a prior that yields and follows the part, the
 #: residual on its target and its mean inside the bound (levers 20-24 differ in their constraints only).
 FOLLOWING_INSIDE: dict[str, Any] = {**SEATED_HOLDS, **EITHER_SEAT, **YIELDING, **ON_TARGET, **FLOOR, **INSIDE}
+#: Levers 26-30 in turn (RULE.md), each the one before with one change: the expert's grasp chosen from clear starts
+#: among the hooks and wraps; the load bound's budget at 1%; the grasp within CHOICE_MARGIN_DEPTH; that margin after
+#: the load held and the drag begun where the part began; the residual eased in.
+CHOSEN: dict[str, Any] = {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED), "task.damping_log": True,
+                          "task.expert_wrap": True, "task.expert_placement": "starts"}
+CHOSEN_TIGHT: dict[str, Any] = {**CHOSEN, **within(0.1, UNHURRIED, load_budget=0.01)}
+CHOSEN_MARGIN: dict[str, Any] = {**CHOSEN_TIGHT, "task.expert_depth": CHOICE_MARGIN_DEPTH}
+FROM_START: dict[str, Any] = {**CHOSEN_MARGIN, "task.expert_placement": "starts_hold", "task.prior_floor": False,
+                              "task.prior_from_start": True}
+EASED: dict[str, Any] = {**FROM_START, "task.residual_ramp": RESIDUAL_RAMP}
 
 
 @dataclass(frozen=True)
@@ -419,42 +429,25 @@ METHODS = {m.name: m for m in (
            status="experimental", evidence="results/screen/RULE.md (twenty-fifth lever)"),
     Method("hold_blind_residual_chosen", "hold_blind_residual_either with its expert's grasp chosen from clear "
            "starts (task.expert_placement starts: within 2 mm, then the load held from every start, then the lighter "
-           "pull); 150 epochs, final checkpoint",
-           {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED), "task.damping_log": True, "task.expert_wrap": True,
-            "task.expert_placement": "starts"},
+           "pull); 150 epochs, final checkpoint", CHOSEN,
            status="experimental", evidence="results/screen/RULE.md (twenty-sixth lever)"),
     Method("hold_blind_residual_chosen_tight", "hold_blind_residual_chosen with a fifth of the load bound's budget: "
            "1% of steps after an episode first pulls past 1.1x its expert's peak from its start; 150 epochs, final "
-           "checkpoint", {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01), "task.damping_log": True,
-                          "task.expert_wrap": True, "task.expert_placement": "starts"},
-           status="experimental", evidence="results/screen/RULE.md (twenty-seventh lever)"),
+           "checkpoint", CHOSEN_TIGHT, status="experimental", evidence="results/screen/RULE.md (twenty-seventh lever)"),
     Method("hold_blind_residual_chosen_margin", "hold_blind_residual_chosen_tight with its expert's grasp chosen "
            "within 1.5 mm (task.expert_depth), half a millimetre for the policy's own press below the 2 mm bound; 150 "
-           "epochs, final checkpoint", {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01),
-                                        "task.damping_log": True, "task.expert_wrap": True,
-                                        "task.expert_placement": "starts", "task.expert_depth": CHOICE_MARGIN_DEPTH},
+           "epochs, final checkpoint", CHOSEN_MARGIN,
            status="experimental", evidence="results/screen/RULE.md (twenty-eighth lever)"),
     Method("hold_blind_residual_from_start", "hold_blind_residual_chosen_margin with the margin ranked after the load "
            "held (task.expert_placement starts_hold) and the drag begun where the part began, then at its own pace "
            "(task.prior_from_start for task.prior_floor: a part pulled ahead does not take the drag along); 150 "
-           "epochs, final checkpoint", {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01),
-                                "task.damping_log": True, "task.expert_wrap": True, "task.prior_floor": False,
-                                "task.prior_from_start": True, "task.expert_placement": "starts_hold",
-                                "task.expert_depth": CHOICE_MARGIN_DEPTH},
+           "epochs, final checkpoint", FROM_START,
            status="experimental", evidence="results/screen/RULE.md (twenty-ninth lever)"),
     Method("hold_blind_residual_eased", "hold_blind_residual_from_start with the residual eased in over an episode's "
-           "first 10 steps (task.residual_ramp); 150 epochs, final checkpoint",
-           {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01), "task.damping_log": True,
-            "task.expert_wrap": True, "task.prior_floor": False, "task.prior_from_start": True,
-            "task.expert_placement": "starts_hold", "task.expert_depth": CHOICE_MARGIN_DEPTH,
-            "task.residual_ramp": RESIDUAL_RAMP},
+           "first 10 steps (task.residual_ramp); 150 epochs, final checkpoint", EASED,
            status="experimental", evidence="results/screen/RULE.md (thirtieth lever)"),
     Method("hold_blind_residual_eased_fine", "hold_blind_residual_eased with the residual's pull at an eighth of the "
-           "action range (a quarter before); 150 epochs, final checkpoint",
-           {**FOLLOWING_INSIDE, **within(0.1, UNHURRIED, load_budget=0.01), **reach(0.125, "translation"),
-            "task.damping_log": True, "task.expert_wrap": True, "task.prior_floor": False,
-            "task.prior_from_start": True, "task.expert_placement": "starts_hold",
-            "task.expert_depth": CHOICE_MARGIN_DEPTH, "task.residual_ramp": RESIDUAL_RAMP},
+           "action range (a quarter before); 150 epochs, final checkpoint", {**EASED, **reach(0.125, "translation")},
            status="experimental", evidence="results/screen/RULE.md (thirty-first lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "

@@ -51,7 +51,7 @@ from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
 from dragmesh2_jax.task import randomize
 from dragmesh2_jax.task.config import PEAK_COSTS, ResetNoise, TaskConfig
-from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit, residual_step
+from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit, planned_step, residual_step
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, START_STEPS, Obs, State
 from dragmesh2_jax.task.rewards import (
@@ -354,7 +354,7 @@ class PullTask:
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
             "stall": jnp.int32(0), "cooldown": jnp.int32(0),
-            **({"q0": k.obj_q.astype(jnp.float32)} if c.prior_from_start else {}),  # where expert.drag_step begins
+            **({"drag_begun": planned_step(self.params, k.obj_q)} if c.prior_from_start else {}),  # expert.drag_step
         }
         obs = Obs(state=state_obs(c, k, self.params), history=history, aux=self._aux(info),
                   privileged=self._privileged(info, k), step=info["step"])

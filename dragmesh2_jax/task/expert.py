@@ -58,25 +58,31 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
     return held_targets(traj, config)
 
 
-def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params, q0: jnp.ndarray | None = None
+def planned_step(params, q: jnp.ndarray) -> jnp.ndarray:
+    """The first step of the expert drag whose planned joint (``params.schedule``, made monotone) reaches the part's
+    joint ``q``, the plan's last for a part past its end."""
+    planned = jax.lax.cummax(params.schedule)  # sorted, as searchsorted needs (a plan that holds a step stays put)
+    return jnp.minimum(jnp.searchsorted(planned, q, side="left"), planned.shape[0] - 1)
+
+
+def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params, begun: jnp.ndarray | None = None
               ) -> jnp.ndarray:
     """The step of the expert drag whose target the prior applies at episode step ``step``: that step, under
-    ``config.prior_floor`` at least the first whose planned joint (``params.schedule``, the task's, made monotone)
-    reaches the part's joint ``q`` now, under ``config.prior_from_start`` that step after the first whose planned
-    joint reaches ``q0``, the part's joint where the episode began, and under ``config.prior_lead`` at most the first
-    whose planned joint lies prior_lead x the part's range past ``q``."""
+    ``config.prior_floor`` at least :func:`planned_step` of the part's joint ``q`` now, under
+    ``config.prior_from_start`` that step after ``begun`` (the planned step of the part's joint where the episode
+    began, kept by the task's reset), and under ``config.prior_lead`` at most the first whose planned joint lies
+    prior_lead x the part's range past ``q``."""
     if not (config.prior_floor or config.prior_from_start) and config.prior_lead is None:
         return step  # time-indexed: nothing of the plan is read
-    planned = jax.lax.cummax(params.schedule)  # sorted, as searchsorted needs (a plan that holds a step stays put)
-    last = planned.shape[0] - 1
+    last = params.schedule.shape[0] - 1
     if config.prior_floor:
-        step = jnp.maximum(step, jnp.minimum(jnp.searchsorted(planned, q, side="left"), last))
+        step = jnp.maximum(step, planned_step(params, q))
     if config.prior_from_start:
-        step = jnp.minimum(step + jnp.searchsorted(planned, q0, side="left"), last)
+        step = jnp.minimum(step + begun, last)
     if config.prior_lead is None:
         return step
     lead = config.prior_lead * (params.q_goal - params.q_start)
-    return jnp.minimum(step, jnp.searchsorted(planned, q + lead, side="right"))
+    return jnp.minimum(step, jnp.searchsorted(jax.lax.cummax(params.schedule), q + lead, side="right"))
 
 
 def residual_gain(config: TaskConfig) -> np.ndarray:
@@ -93,7 +99,7 @@ def residual_step(config: TaskConfig, params, info: dict, hand_q: jnp.ndarray, o
     the expert drag at the episode's step (``info``: the task state's; under ``config.residual_ramp`` the residual
     eased in from the episode's start) (``config.residual_on``: added to the drag's increment within the bound, the sum
     charged; or offsetting its target, the residual charged: its own output, as the policy chose it)."""
-    step = drag_step(config, info["step"], obj_q, params, info.get("q0"))
+    step = drag_step(config, info["step"], obj_q, params, info.get("drag_begun"))
     drag, gain = params.drag[step], residual_gain(config)
     if config.residual_ramp:
         gain = gain * jnp.minimum(1.0, (info["step"] + 1.0) / config.residual_ramp)

@@ -15,7 +15,7 @@ from dragmesh2_jax.runs.build import load_task, task_of
 from dragmesh2_jax.runs.spec import method_defaults
 from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig, TaskConfig
 from dragmesh2_jax.task.env import PullTask, applied_action, make_batched
-from dragmesh2_jax.task.expert import LOAD_DAMPINGS, drag_step, expert_replay, load_unit, residual_step
+from dragmesh2_jax.task.expert import LOAD_DAMPINGS, drag_step, expert_replay, load_unit, planned_step, residual_step
 from dragmesh2_jax.task.starts import reset_starts
 
 DOOR = str(packaged_object("door_cabinet_0000"))
@@ -176,7 +176,7 @@ def test_the_drag_from_the_start_begins_where_the_part_began_and_keeps_its_own_p
     params.schedule, params.q_start, params.q_goal = jnp.asarray([0.0, 0.1, 0.3, 0.2, 0.5, 0.7, 0.9, 1.0]), 0.0, 2.0
     start = TaskConfig(expert_prior=True, prior_from_start=True)
     step = lambda config, k, q, q0: int(drag_step(config, jnp.int32(k), jnp.float32(q), params,  # noqa: E731
-                                                  jnp.float32(q0)))
+                                                  planned_step(params, jnp.float32(q0))))
     assert step(start, 0, 0.45, 0.45) == 4 and step(start, 2, 0.45, 0.45) == 6  # from the plan's 0.5 on, step by step
     assert step(start, 1, 0.9, 0.0) == 1  # a part pulled ahead: the drag keeps its pace
     assert step(start, 3, 0.0, 0.8) == 7  # past the plan's end: its last
