@@ -449,6 +449,10 @@ METHODS = {m.name: m for m in (
     Method("hold_blind_residual_eased_fine", "hold_blind_residual_eased with the residual's pull at an eighth of the "
            "action range (a quarter before); 150 epochs, final checkpoint", {**EASED, **reach(0.125, "translation")},
            status="experimental", evidence="results/screen/RULE.md (thirty-first lever)"),
+    Method("hold_blind_residual_eased_wrist", "hold_blind_residual_eased_fine with the wrist's turn narrowed as its "
+           "pull (reach 0.125 on the six wrist channels; the fingers keep the whole range); 150 epochs, final "
+           "checkpoint", {**EASED, **reach(0.125, "wrist")},
+           status="experimental", evidence="results/screen/RULE.md (thirty-second lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",

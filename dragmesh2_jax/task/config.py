@@ -118,9 +118,9 @@ MAX_DEPTH = 0.002  # m: the deepest hand-object contact the issue "Hold on and f
 #: (the firm seat on a drawer; the soft seat on a door the firm one lets go of: RULE.md, seventeenth lever).
 ExpertPlanContact = Literal["scene", "mujoco", "holds"]
 EXPERT_UNITS = get_args(ExpertUnit)
-#: The channels ``residual_scale`` narrows: the whole hand's, or the wrist's translation alone (the arm's pull; the
-#: grasp and the wrist's rotation keep the policy's whole range).
-ResidualScope = Literal["hand", "translation"]
+#: The channels ``residual_scale`` narrows: the whole hand's, the wrist's translation alone (the arm's pull; the
+#: grasp and the wrist's rotation keep the policy's whole range), or the wrist's six (its turn too; the grasp free).
+ResidualScope = Literal["hand", "translation", "wrist"]
 RESIDUAL_SCOPES = get_args(ResidualScope)
 #: What the residual adds to (``residual_on``): "action", the expert drag's increment toward this step's target, the
 #: sum clipped to the action bound (so under load, where the hand lags its target by more than alpha, the expert's grip

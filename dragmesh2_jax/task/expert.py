@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from dragmesh2_jax.assets.hand import NUM_DOFS
+from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.io import atomic_write_bytes, cache_dir, object_hash
 from dragmesh2_jax.physics import contacts
@@ -85,11 +85,15 @@ def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params, beg
     return jnp.minimum(step, jnp.searchsorted(jax.lax.cummax(params.schedule), q + lead, side="right"))
 
 
+#: The leading action channels each ``residual_scope`` narrows: the wrist's translation, its six virtual DoFs, the hand.
+SCOPE_CHANNELS = {"translation": 3, "wrist": NUM_VIRTUAL, "hand": NUM_DOFS}
+
+
 def residual_gain(config: TaskConfig) -> np.ndarray:
     """The factor on each of the hand's action channels before the policy's residual adds to the expert's:
     ``config.residual_scale`` on the channels of ``config.residual_scope``, 1 on the rest."""
     gain = np.ones(NUM_DOFS, np.float32)
-    gain[:3 if config.residual_scope == "translation" else NUM_DOFS] = config.residual_scale
+    gain[:SCOPE_CHANNELS[config.residual_scope]] = config.residual_scale
     return gain
 
 

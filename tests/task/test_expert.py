@@ -7,12 +7,14 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from dragmesh2_jax.assets.hand import NUM_DOFS, NUM_VIRTUAL
 from dragmesh2_jax.assets.procedural import packaged_object
 from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.evaluation.evaluate import envelope
 from dragmesh2_jax.runs.build import load_task, task_of
 from dragmesh2_jax.runs.spec import method_defaults
+from dragmesh2_jax.task import expert
 from dragmesh2_jax.task.config import Constraint, ResetNoise, RewardConfig, TaskConfig
 from dragmesh2_jax.task.env import PullTask, applied_action, make_batched
 from dragmesh2_jax.task.expert import LOAD_DAMPINGS, drag_step, expert_replay, load_unit, planned_step, residual_step
@@ -204,6 +206,13 @@ def test_an_eased_residual_offsets_the_drags_target_by_a_share_of_itself_that_gr
     for bad in ({"residual_ramp": 4}, {"residual_ramp": -1, "expert_prior": True}):
         with pytest.raises(DragMeshError, match="residual_ramp"):
             TaskConfig(**bad)
+
+
+def test_a_residual_scope_narrows_its_leading_channels_and_leaves_the_rest_whole():
+    """"translation" narrows the wrist's pull, "wrist" its pull and turn (the grasp free), "hand" every channel."""
+    for scope, narrowed in (("translation", 3), ("wrist", NUM_VIRTUAL), ("hand", NUM_DOFS)):
+        gain = expert.residual_gain(TaskConfig(expert_prior=True, residual_scale=0.125, residual_scope=scope))
+        assert gain.shape == (NUM_DOFS,) and (gain[:narrowed] == 0.125).all() and (gain[narrowed:] == 1.0).all()
 
 
 def test_a_prior_with_a_floor_does_not_push_a_part_open_start_back(door):
