@@ -32,8 +32,8 @@ from dragmesh2_jax.trajectory.schema import Trajectory
 
 #: The placements chosen here (``TaskConfig.expert_placement``).
 PLACEMENTS = ("starts", "starts_hold")
-#: The clear starts each candidate is replayed from, and their seed (not the evaluation's bank, nor training's).
-CHOICE_STARTS, CHOICE_SEED = 8, 7
+#: The seed of the clear starts each candidate is replayed from (not the evaluation's bank, nor training's).
+CHOICE_SEED = 7
 #: The damping multipliers tried in order, up to the first at which a start is not opened.
 CHOICE_DAMPINGS = (1.0, 2.0, 4.0, 8.0, 16.0)
 
@@ -47,9 +47,10 @@ def from_part(targets: np.ndarray, schedule: np.ndarray, obj_q: float) -> np.nda
 
 
 def score(scene: Scene, traj: Trajectory, config: TaskConfig) -> dict:
-    """How ``traj``'s expert drag does from ``CHOICE_STARTS`` clear starts: its deepest contact and peak wrist load at
-    x1 (the largest over the starts) and the highest damping it opens the part at from every start (0: not at x1)."""
-    noise = replace(config.reset_noise or ResetNoise(), bank=CHOICE_STARTS, seed=CHOICE_SEED)
+    """How ``traj``'s expert drag does from ``config.expert_choice_starts`` clear starts: its deepest contact and peak
+    wrist load at x1 (the largest over the starts) and the highest damping it opens the part at from every start (0:
+    not at x1)."""
+    noise = replace(config.reset_noise or ResetNoise(), bank=config.expert_choice_starts, seed=CHOICE_SEED)
     targets = reachable_targets(scene, traj, config)
     schedule = traj.drag_schedule(config.control_dt, config.episode_length)
     substeps = substeps_of(scene, config)
@@ -73,7 +74,7 @@ def scores_of(scene: Scene, candidates: list[tuple[str, Trajectory]], config: Ta
     key = hash_files([], extra="\0".join([
         *(repr(t.to_json()["header"]) + repr(t.hand_q.tobytes()) for _, t in candidates), scene.xml,
         repr((config.reset_noise, config.control_dt, config.episode_length, config.rho, config.settle_substeps,
-              CHOICE_STARTS, CHOICE_SEED, CHOICE_DAMPINGS))]))
+              config.expert_choice_starts, CHOICE_SEED, CHOICE_DAMPINGS))]))
     cache = cache_dir() / "choice_scores" / f"{key}.json"
     with contextlib.suppress(OSError, ValueError):  # unreadable or torn: scored again
         cached = json.loads(cache.read_text())

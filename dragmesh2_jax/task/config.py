@@ -102,15 +102,14 @@ ExpertUnit = Literal["grasp", "start"]
 #: the wrist's target there and the fingers' ``grip_closure`` past it (generator 1.2; RESULTS.md, penetration).
 ExpertGrasp = Literal["seated", "planned"]
 #: Which of the generator's palm placements the expert grasps with (``expert_placement``): "first", the first that
-#: passes its gate and grips the handle; "holds", of those that pass, the one whose drag still opens the part at the
-#: highest damping (``trajectory.generator.HOLD_DAMPINGS``; RESULTS.md, the suite); with the seated grasp, a planned
-#: placement where it holds more than every seated one (generator 1.4: the recipe's expert, RESULTS.md §3); "starts",
-#: every placement in every physics it is planned in, each replayed from a few clear starts and kept by the depth,
-#: then the load held from all of them, then the lighter pull (``task.choice``; a choice made from the exact grasp
-#: keeps grasps that let go from perturbed ones: results/screen/RULE.md, twenty-sixth lever); "starts_hold", as
-#: "starts" with ``expert_depth`` ranked after the load held, MAX_DEPTH still first (lever 29).
+#: passes its gate and grips the handle; "holds", of those, the one whose drag opens the part at the highest damping
+#: (``trajectory.generator.HOLD_DAMPINGS``), a planned one over the seated where it holds more (generator 1.4);
+#: "starts", every placement in every physics, each replayed from clear starts (``task.choice``, RULE.md lever 26):
+#: the depth, then the load held, then the lighter pull; "starts_hold", MAX_DEPTH, the load held, then expert_depth.
 ExpertPlacement = Literal["first", "holds", "starts", "starts_hold"]
 MAX_DEPTH = 0.002  # m: the deepest hand-object contact the issue "Hold on and follow" allows
+#: The clear starts the choice replays each candidate from (8 kept a grasp 2.2 mm deep at x8 on door 111: lever 33).
+CHOICE_STARTS = 8
 #: The physics the generated trajectory is planned, seated and chosen in (``expert_plan_contact``): "scene", the run's
 #: own; "mujoco", MuJoCo's default object contacts and the hand's default finger drives (``SceneConfig()``'s), whose
 #: soft contacts seat the hand 4-9 mm into the handle: on the hand's stiff contacts a preload (RESULTS.md §3);
@@ -355,10 +354,9 @@ class TaskConfig:
     joint lies this fraction of the part's range past the part's joint now, so the hand's target waits for a part that
     lags instead of running ahead of it (results/pace/RULE.md); None: the drag at its own pace (time-indexed)"""
     prior_floor: bool = False
-    """beyond the paper, under expert_prior: the drag's step never behind the part, at least the plan's first whose
-    planned joint reaches the part's joint now, so that a start with the part open is not pulled back to the closed
-    part's grasp (from clear starts on a hard door at x8 the time-indexed drag presses the fingers 3.5 mm into the
-    handle in its first steps, from the part's step 1.9 mm: results/screen/RULE.md, nineteenth lever)"""
+    """beyond the paper, under expert_prior: the drag's step never behind the part (at least the plan's first whose
+    planned joint reaches the part's joint now), so a part-open start is not pulled back to the closed part's grasp
+    (door 101 at x8 from clear starts: 3.5 -> 1.9 mm in the first steps; results/screen/RULE.md, lever 19)"""
     prior_from_start: bool = False
     """beyond the paper, under expert_prior: the drag begun where the part began, then at its own pace: a part pulled
     ahead does not take the drag along, as prior_floor (also set) would (a rush on a light drawer: RULE.md, lever 29)"""
@@ -371,6 +369,8 @@ class TaskConfig:
     expert_depth: float = MAX_DEPTH
     """m, beyond the paper, under expert_placement "starts" or "starts_hold": the deepest contact at x1 a kept grasp
     may reach from the choice's starts (below MAX_DEPTH: a margin for the policy's own press; RULE.md, lever 28)"""
+    expert_choice_starts: int = CHOICE_STARTS
+    """under expert_placement "starts" or "starts_hold": the clear starts each candidate grasp is replayed from"""
     expert_plan_contact: ExpertPlanContact = "scene"
     """beyond the paper, the physics the generated trajectory is planned in (ExpertPlanContact's comment)"""
     expert_wrap: bool = False
@@ -378,8 +378,7 @@ class TaskConfig:
     fingers around it) after the hooks, the placement kept as expert_placement says"""
     expert_rest: bool = False
     """beyond the paper: the generated grasp rested on the run's own contacts (the fingers under light drives), the
-    drag starting there, the fingers grip_closure past it (trajectory.rest; results/screen/RULE.md, twenty-fifth
-    lever)"""
+    drag starting there, the fingers grip_closure past it (trajectory.rest; RULE.md, twenty-fifth lever)"""
     grip_closure: float = 0.04
     """rad, under the seated or rested grasp: how far past where the handle stopped them the fingers' targets close
     (the grip's force, at most the finger drives' limit; below alpha, so that the expert's own action stays inside its
@@ -425,8 +424,9 @@ class TaskConfig:
             raise DragMeshError(f"friction_range must satisfy 0 <= lo <= hi, got {self.friction_range}")
         if self.contacts is not None and self.contacts < 1:
             raise DragMeshError(f"contacts per world must be >= 1, got {self.contacts}")
-        if not 0 < self.expert_depth < math.inf:
-            raise DragMeshError(f"expert_depth must be finite and > 0 m, got {self.expert_depth}")
+        if not (0 < self.expert_depth < math.inf and self.expert_choice_starts >= 1):
+            raise DragMeshError(f"expert_depth must be finite and > 0 m, expert_choice_starts >= 1, got "
+                                f"{self.expert_depth} and {self.expert_choice_starts}")
         if not 0 <= self.grip_closure < math.inf:
             raise DragMeshError(f"grip_closure must be finite and >= 0 rad, got {self.grip_closure}")
         if not 0 < self.residual_scale <= 1 or (self.residual_scale != 1 and not self.expert_prior):

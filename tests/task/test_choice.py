@@ -74,3 +74,28 @@ def test_a_task_under_the_starts_choice_scores_each_placement_alone_and_keeps_on
     assert len({repr(s["placement"]) for s in scores}) == len(scores)  # each placement generated alone
     best = scores[g["choice"]["kept"]]
     assert best["within_depth"] and best["held"] == max(s["held"] for s in scores if s["within_depth"])
+
+
+def test_each_candidate_is_replayed_from_as_many_clear_starts_as_the_config_asks_and_scored_apart(
+        drawer_candidates, tmp_path, monkeypatch):
+    """``expert_choice_starts``: every damping replays each candidate from that many starts, and the scores of another
+    count are cached apart (a wider choice never reads a narrower one's scores)."""
+    monkeypatch.setenv("DRAGMESH2_CACHE", str(tmp_path))
+    scene, candidates = drawer_candidates
+    replays = []
+    replay = choice.contacts.replay
+
+    def counted(scene, start, *args):
+        replays.append(start)
+        return replay(scene, start, *args)
+    monkeypatch.setattr(choice.contacts, "replay", counted)
+    config = TaskConfig(backend="mujoco", expert_placement="starts", expert_choice_starts=2)
+    score = choice.score(scene, candidates[1][1], config)
+    tried = sum(d <= score["held"] for d in choice.CHOICE_DAMPINGS) + (score["held"] < choice.CHOICE_DAMPINGS[-1])
+    assert len(replays) == 2 * tried  # the dampings held, and the first one not held
+    replays.clear()
+    choice.scores_of(scene, candidates[1:], config)
+    narrow = len(replays)
+    replays.clear()
+    choice.scores_of(scene, candidates[1:], replace(config, expert_choice_starts=3))
+    assert narrow > 0 and len(replays) > narrow  # not read from the 2-start scores' cache
