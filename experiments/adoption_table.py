@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
-from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
+from dragmesh2_jax.runs.overrides import RECIPE_DAMPINGS
 
 POLICY = EvalProtocol(dampings=RECIPE_DAMPINGS, modes=("det",), episodes=50)
 EXPERT = EvalProtocol(dampings=(1.0, 8.0), modes=("det",), episodes=50)

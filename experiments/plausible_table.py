@@ -18,7 +18,7 @@ from dragmesh2_jax.baselines.tracking import tracking_controller
 from dragmesh2_jax.evaluation.evaluate import evaluate
 from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.runs.build import load_task
-from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
+from dragmesh2_jax.runs.overrides import RECIPE_DAMPINGS
 from dragmesh2_jax.runs.spec import method_defaults
 
 #: The expert grasps a table can list beside the rows: each's TaskConfig fields (the paper's; the recipe's).

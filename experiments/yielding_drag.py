@@ -30,7 +30,7 @@ from dragmesh2_jax.evaluation.protocol import EvalProtocol
 from dragmesh2_jax.io import atomic_write_text
 from dragmesh2_jax.policies.controller import Controller
 from dragmesh2_jax.runs.build import load_task
-from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
+from dragmesh2_jax.runs.overrides import RECIPE_DAMPINGS
 from dragmesh2_jax.runs.spec import method_defaults
 from dragmesh2_jax.task.observation import STATE_SIZE
 

@@ -35,7 +35,8 @@ from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
 from dragmesh2_jax.reproduce import CHECKPOINTS, GENERALIST_HOLDOUT, GENERALIST_OBJECTS, SCALING_OBJECTS, TABLES
 from dragmesh2_jax.runs.finetunes import FINETUNES
 from dragmesh2_jax.runs.generalist import OPEN_EPISODES
-from dragmesh2_jax.runs.presets import DEFAULT_METHOD, RECIPE_DAMPINGS, RECOMMENDED, offered
+from dragmesh2_jax.runs.overrides import RECIPE_DAMPINGS
+from dragmesh2_jax.runs.presets import DEFAULT_METHOD, RECOMMENDED, offered
 from dragmesh2_jax.runs.spec import ROBUST_EVERY, SAVE_EVERY
 
 OVERWRITE_HELP = ("start again in a folder that holds a run's products: removes its run.json, trajectories, logs, "

@@ -58,9 +58,24 @@ def _pack(tree) -> bytes:
     return serialization.msgpack_serialize(serialization.to_state_dict(jax.device_get(tree)))
 
 
+def _beyond(want, got, at: str = "") -> str | None:
+    """The first key of the stored state dict ``got`` that ``want`` (the program's) lacks: flax restores a template's
+    keys and drops the rest, so a record whose network lost a layer would load the checkpoint's first layers alone."""
+    if not (isinstance(want, dict) and isinstance(got, dict)):
+        return None
+    for k, v in got.items():
+        where = f"{at}/{k}"
+        if k not in want or (extra := _beyond(want[k], v, where)):
+            return where if k not in want else extra
+    return None
+
+
 def _unpack(template, data: bytes):
     """``template``'s structure with the values of ``data``; another structure or another shape is a ValueError."""
-    tree = serialization.from_state_dict(template, serialization.msgpack_restore(data))
+    state = serialization.msgpack_restore(data)
+    if extra := _beyond(serialization.to_state_dict(template), state):
+        raise ValueError(f"the checkpoint holds {extra}, which the program does not")
+    tree = serialization.from_state_dict(template, state)
     for want, got in zip(jax.tree.leaves(template), jax.tree.leaves(tree), strict=True):
         if np.shape(want) != np.shape(got):
             raise ValueError(f"an array of shape {np.shape(got)} where the program has {np.shape(want)}")

@@ -15,7 +15,8 @@ from typing import Any
 
 from dragmesh2_jax.errors import DragMeshError
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS
-from dragmesh2_jax.runs.presets import LOAD_BOUND, METHODS, SATURATION_BUDGET, beside_load_bound
+from dragmesh2_jax.runs.overrides import LOAD_BOUND, SATURATION_BUDGET, beside_load_bound
+from dragmesh2_jax.runs.presets import METHODS
 from dragmesh2_jax.task.config import AramConfig, Constraint, ReconfigConfig, RewardConfig
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 

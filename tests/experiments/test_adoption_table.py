@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from dragmesh2_jax.runs.presets import RECIPE_DAMPINGS
+from dragmesh2_jax.runs.overrides import RECIPE_DAMPINGS
 
 SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "adoption_table.py"
 sys.path.insert(0, str(SCRIPT.parent))

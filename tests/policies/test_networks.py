@@ -22,7 +22,8 @@ from dragmesh2_jax.policies.networks import (
     make_inference_fn,
 )
 from dragmesh2_jax.ppo import train as train_lib
-from dragmesh2_jax.runs.presets import METHODS, NO_PHYSICAL_SIGNALS, get_method
+from dragmesh2_jax.runs.overrides import NO_PHYSICAL_SIGNALS
+from dragmesh2_jax.runs.presets import METHODS, get_method
 from dragmesh2_jax.task.protocol import Obs
 
 

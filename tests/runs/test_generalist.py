@@ -23,7 +23,7 @@ from dragmesh2_jax.ppo.config import PPOConfig
 from dragmesh2_jax.ppo.train import policy_params
 from dragmesh2_jax.runs.commands import evaluate_checkpoint, load_run
 from dragmesh2_jax.runs.generalist import AS_A_PERSON, GENERALIST, OPEN_EPISODES, generalist_objects, package_run
-from dragmesh2_jax.runs.presets import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, GENERALIST_ROBUST_EPISODES
+from dragmesh2_jax.runs.overrides import GENERALIST_ENV_STEPS, GENERALIST_EPOCHS, GENERALIST_ROBUST_EPISODES
 from dragmesh2_jax.runs.rundir import ACTOR_NAME, PACKAGED, RunDir
 from dragmesh2_jax.runs.spec import method_defaults
 from dragmesh2_jax.task.mix import CURRICULUM_PRIOR, CURRICULUM_RATE

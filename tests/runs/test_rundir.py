@@ -121,6 +121,20 @@ def _said(record: dict) -> dict:
     return {k: v for k, v in record.items() if v not in ([], None)}
 
 
+def test_a_record_whose_network_lost_a_layer_is_one_error_line_not_the_checkpoints_first_layers(run, tmp_path):
+    """flax restores the keys a template has and drops the rest: a record stating one hidden layer fewer than its
+    checkpoint holds must not load that checkpoint's first layers as a smaller network."""
+    copy = tmp_path / "one_layer"
+    shutil.copytree(run.path, copy)
+    record = run.record()
+    assert len(record["network"]["state_sizes"]) > 1
+    record["network"]["state_sizes"] = record["network"]["state_sizes"][:1]
+    (copy / "run.json").write_text(json.dumps(record, indent=1))
+    with pytest.raises(DragMeshError, match="which the program does not") as e:
+        load_run(copy, keep_env=False)
+    assert "\n" not in str(e.value)
+
+
 def test_a_damaged_run_folder_loads_or_is_one_error_line(run, tmp_path):
     """Each damage is one error line or loads what the folder held, read whole (the learner and the worlds, as an
     exact resume reads them). A mutated record loads the checkpoint's values and its config as the record now states

@@ -23,7 +23,8 @@ from dragmesh2_jax.ppo.train import epoch_jit, init_jit
 from dragmesh2_jax.runs.build import program_of
 from dragmesh2_jax.runs.commands import load_run, on_object
 from dragmesh2_jax.runs.finetunes import FINETUNES, catalogue
-from dragmesh2_jax.runs.presets import METHODS, RECIPE_DAMPINGS, RECOMMENDED, Method, get_method
+from dragmesh2_jax.runs.overrides import RECIPE_DAMPINGS
+from dragmesh2_jax.runs.presets import METHODS, RECOMMENDED, Method, get_method
 from dragmesh2_jax.runs.record import config_from_dict, config_to_dict
 from dragmesh2_jax.runs.rundir import RunDir
 from dragmesh2_jax.runs.session import start_or_resume
