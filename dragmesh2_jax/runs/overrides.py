@@ -192,3 +192,5 @@ FROM_START: dict[str, Any] = {**CHOSEN_MARGIN, "task.expert_placement": "starts_
 EASED: dict[str, Any] = {**FROM_START, "task.residual_ramp": RESIDUAL_RAMP}
 EASED_WRIST: dict[str, Any] = {**EASED, **reach(0.125, "wrist")}
 WIDE: dict[str, Any] = {**EASED_WRIST, "task.expert_choice_starts": WIDE_CHOICE_STARTS}
+#: Lever 34: the fingers' residual at an eighth too (at x8 the grip it closes drew the palm 1.4x its x1 pace; RULE.md).
+WIDE_HAND: dict[str, Any] = {**WIDE, **reach(0.125, "hand")}

@@ -59,6 +59,7 @@ from dragmesh2_jax.runs.overrides import (
     SOFT_SEAT,
     UNHURRIED,
     WIDE,
+    WIDE_HAND,
     YIELDING,
     bounded,
     reach,
@@ -312,6 +313,9 @@ METHODS = {m.name: m for m in (
     Method("hold_blind_residual_wide", "hold_blind_residual_eased_wrist with its expert's grasp chosen from 24 clear "
            "starts (8 before); 150 epochs, final checkpoint", WIDE,
            status="experimental", evidence="results/screen/RULE.md (thirty-third lever)"),
+    Method("hold_blind_residual_wide_hand", "hold_blind_residual_wide with the fingers' residual at an eighth too "
+           "(reach 0.125 on every channel); 150 epochs, final checkpoint", WIDE_HAND,
+           status="experimental", evidence="results/screen/RULE.md (thirty-fourth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
