@@ -25,6 +25,7 @@ exported actor only, read where a checkpoint is taken by its name (``--checkpoin
 from __future__ import annotations
 
 import contextlib
+import copy
 import csv
 import io
 import json
@@ -149,7 +150,7 @@ class RunDir:
         self._record = None
 
     def record(self) -> dict:
-        """The record as written, read once."""
+        """The record as written, read once (each caller gets its own copy: the one kept is never changed)."""
         if self._record is None:
             if not self.exists():
                 raise DragMeshError(f"{self.path}: not a training run folder (no run.json)")
@@ -159,7 +160,7 @@ class RunDir:
                 raise DragMeshError(f"{self.record_path}: not valid JSON ({e})") from None
             if not isinstance(self._record, dict):
                 raise DragMeshError(f"{self.record_path}: not a JSON object")
-        return self._record
+        return copy.deepcopy(self._record)
 
     def spec(self) -> RunSpec:
         return RunSpec.from_record(self.record(), where=str(self.record_path))
