@@ -64,9 +64,10 @@ def _beyond(want, got, at: str = "") -> str | None:
     if not (isinstance(want, dict) and isinstance(got, dict)):
         return None
     for k, v in got.items():
-        where = f"{at}/{k}"
-        if k not in want or (extra := _beyond(want[k], v, where)):
-            return where if k not in want else extra
+        if k not in want:
+            return f"{at}/{k}"
+        if extra := _beyond(want[k], v, f"{at}/{k}"):
+            return extra
     return None
 
 

@@ -58,11 +58,15 @@ def expert_drag(scene: Scene, traj: Trajectory, config: TaskConfig) -> np.ndarra
     return held_targets(traj, config)
 
 
+def _reaching(planned: jnp.ndarray, q: jnp.ndarray) -> jnp.ndarray:
+    """The first step whose ``planned`` joint (monotone) reaches ``q``, the plan's last for a part past its end."""
+    return jnp.minimum(jnp.searchsorted(planned, q, side="left"), planned.shape[0] - 1)
+
+
 def planned_step(params, q: jnp.ndarray) -> jnp.ndarray:
     """The first step of the expert drag whose planned joint (``params.schedule``, made monotone) reaches the part's
     joint ``q``, the plan's last for a part past its end."""
-    planned = jax.lax.cummax(params.schedule)  # sorted, as searchsorted needs (a plan that holds a step stays put)
-    return jnp.minimum(jnp.searchsorted(planned, q, side="left"), planned.shape[0] - 1)
+    return _reaching(jax.lax.cummax(params.schedule), q)  # sorted, as searchsorted needs
 
 
 def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params, begun: jnp.ndarray | None = None
@@ -74,15 +78,15 @@ def drag_step(config: TaskConfig, step: jnp.ndarray, q: jnp.ndarray, params, beg
     prior_lead x the part's range past ``q``."""
     if not (config.prior_floor or config.prior_from_start) and config.prior_lead is None:
         return step  # time-indexed: nothing of the plan is read
-    last = params.schedule.shape[0] - 1
+    planned = jax.lax.cummax(params.schedule)  # once per step, for the floor and the lead alike
     if config.prior_floor:
-        step = jnp.maximum(step, planned_step(params, q))
+        step = jnp.maximum(step, _reaching(planned, q))
     if config.prior_from_start:
-        step = jnp.minimum(step + begun, last)
+        step = jnp.minimum(step + begun, planned.shape[0] - 1)
     if config.prior_lead is None:
         return step
     lead = config.prior_lead * (params.q_goal - params.q_start)
-    return jnp.minimum(step, jnp.searchsorted(jax.lax.cummax(params.schedule), q + lead, side="right"))
+    return jnp.minimum(step, jnp.searchsorted(planned, q + lead, side="right"))
 
 
 #: The leading action channels each ``residual_scope`` narrows: the wrist's translation, its six virtual DoFs, the hand.
