@@ -96,15 +96,17 @@ def probe(scene: Scene, starts: list[Start], targets: np.ndarray, substeps: int,
 @dataclass(frozen=True)
 class Replay:
     """What a replay of hand PD targets did (``replay``): the peak wrist load (N), the deepest hand-object
-    penetration (m) after any control step, and the control steps to ``until`` (None: not reached)."""
+    penetration (m) after any control step, the control steps to ``until`` (None: not reached) and the palm's peak
+    speed (m/s) over the control steps after the first ``settled_from``."""
 
     peak_load: float
     deepest: float
     steps: int | None
+    palm_peak: float
 
 
 def replay(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settle_substeps: int, until: float,
-           damping: float = 1.0) -> Replay:
+           damping: float = 1.0, settled_from: int = 0) -> Replay:
     """``targets`` (one hand PD target per control step) replayed on the C engine at ``damping`` x nominal from
     ``start`` (settled as a reset settles it), read after each control step up to the step the target joint reaches
     ``until`` (an episode's success), as ``evaluation.envelope`` reads the expert at its own pace."""
@@ -113,22 +115,19 @@ def replay(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settl
     d = scene.settled_state(*start, settle_substeps)  # settled at nominal damping, as a reset
     force = m.sensor(FORCE_SENSORS[0]).adr[0] + np.arange(3)
     is_hand = scene.geom_mask(scene.ids.hand_geoms)
-    peak, deepest = 0.0, 0.0
+    peak, deepest, palm_peak, palm = 0.0, 0.0, 0.0, d.site_xpos[scene.ids.palm_site].copy()
     for k, target in enumerate(targets):
         d.ctrl[scene.ids.hand_actuators] = target
         for _ in range(substeps):
             mujoco.mj_step(m, d)
         peak = max(peak, float(np.linalg.norm(d.sensordata[force])))
         deepest = max(deepest, contact_depth(is_hand, d))
+        if k >= settled_from:
+            palm_peak = max(palm_peak, float(np.linalg.norm(d.site_xpos[scene.ids.palm_site] - palm)))
+        palm = d.site_xpos[scene.ids.palm_site].copy()
         if d.qpos[scene.ids.target_qpos] >= until:
-            return Replay(peak, deepest, k + 1)
-    return Replay(peak, deepest, None)
-
-
-def peak_load(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settle_substeps: int, until: float,
-              damping: float = 1.0) -> float:
-    """The expert's peak wrist load (N) of :func:`replay`."""
-    return replay(scene, start, targets, substeps, settle_substeps, until, damping).peak_load
+            return Replay(peak, deepest, k + 1, palm_peak / (substeps * m.opt.timestep))
+    return Replay(peak, deepest, None, palm_peak / (substeps * m.opt.timestep))
 
 
 def pairs(scene: Scene) -> list[tuple[str, str]]:

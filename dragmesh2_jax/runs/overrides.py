@@ -8,7 +8,7 @@ from dataclasses import replace
 from typing import Any
 
 from dragmesh2_jax.task.config import MAX_DEPTH, Constraint, ResetNoise, RewardConfig
-from dragmesh2_jax.task.expert import RELATIVE_LOAD
+from dragmesh2_jax.task.expert import RELATIVE_LOAD, RELATIVE_PACE
 from dragmesh2_jax.task.protocol import CLIP_LEVEL
 
 #: The recipe's evaluation cells: its training range x1-x8 and x16 beyond it (out of its training distribution).
@@ -194,3 +194,9 @@ EASED_WRIST: dict[str, Any] = {**EASED, **reach(0.125, "wrist")}
 WIDE: dict[str, Any] = {**EASED_WRIST, "task.expert_choice_starts": WIDE_CHOICE_STARTS}
 #: Lever 34: the fingers' residual at an eighth too (at x8 the grip it closes drew the palm 1.4x its x1 pace; RULE.md).
 WIDE_HAND: dict[str, Any] = {**WIDE, **reach(0.125, "hand")}
+#: Lever 35: the palm's settled pace held to its prior's own, not to PALM_PACE: at most 1% of steps past 1.1x the expert
+#: drag's settled palm peak at x1 from the world's start (``relative_palm_speed``). Under lever 34 door 111's palm at x8
+#: was 1.26x its x1 pace (its translation residual's surge) where PALM_PACE did not bind (RULE.md).
+OWN_PACE_LIMIT = 1.1
+OWN_PACE: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, budget=0.01),
+                                                  load_budget=0.01)}

@@ -84,14 +84,14 @@ class ReconfigConfig:
 #: peak pull on the object at the world's damping (``relative_load``: task/expert.py), how far the part trails the
 #: expert drag at its own pace (``lag``: the plan's target joint at this step less the part's, as a fraction of q_goal -
 #: q_start; negative when ahead) or leads it (``lead``, its negative: a pull faster than the expert's), the palm's speed
-#: (m/s; ``settled_palm_speed``: 0 over an episode's first ``protocol.START_STEPS``, as the evaluation's settled
-#: figure), the largest |a_i| over the DoFs that move and over the wrist's six alone (action units; above CLIP_LEVEL the
-#: step is saturated: a grip pressed deeper than alpha needs saturated finger actions, so the expert's replay saturates
-#: an active DoF in every step: RESULTS.md §3b), the deepest hand-object penetration (m) and how far the applied action
-#: moved since the last step, mean |a_t - a_(t-1)| over the 51 channels (action units, 0 at an episode's first step; the
-#: evaluation's ``action_smoothness`` per step).
-Measure = Literal["load", "relative_load", "lag", "lead", "palm_speed", "settled_palm_speed", "saturation",
-                  "wrist_saturation", "penetration", "action_change"]
+#: (m/s; ``settled_palm_speed``: 0 over an episode's first ``protocol.START_STEPS``, as the evaluation's settled figure;
+#: ``relative_palm_speed``: that in units of the expert drag's settled palm peak at x1), the largest |a_i| over the DoFs
+#: that move and over the wrist's six alone (action units; above CLIP_LEVEL the step is saturated: the expert's grip,
+#: pressed deeper than alpha, saturates an active DoF in every step: RESULTS.md §3b), the deepest hand-object
+#: penetration (m) and how far the applied action moved since the last step, mean |a_t - a_(t-1)| over the 51 channels
+#: (action units, 0 at an episode's first step; the evaluation's ``action_smoothness`` per step).
+Measure = Literal["load", "relative_load", "lag", "lead", "palm_speed", "settled_palm_speed", "relative_palm_speed",
+                  "saturation", "wrist_saturation", "penetration", "action_change"]
 MEASURES = get_args(Measure)
 #: The unit of ``relative_load``: the expert drag's peak wrist load at the world's damping, replayed from its exact
 #: grasp (``grasp``) or from the reset bank's start the world's episode began at (``start``: a start from which the
@@ -361,7 +361,7 @@ class TaskConfig:
     """beyond the paper, under expert_prior: the drag begun where the part began, then at its own pace: a part pulled
     ahead does not take the drag along, as prior_floor (also set) would (a rush on a light drawer: RULE.md, lever 29)"""
     expert_load_unit: ExpertUnit = "grasp"
-    """beyond the paper, the unit of the relative_load measure (EXPERT_UNITS' comment)"""
+    """beyond the paper, the start relative_load's and relative_palm_speed's units are probed from (EXPERT_UNITS')"""
     expert_grasp: ExpertGrasp = "planned"
     """beyond the paper, the grasp the generated trajectory holds the handle with (ExpertGrasp's comment)"""
     expert_placement: ExpertPlacement = "first"

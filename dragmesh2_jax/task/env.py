@@ -49,9 +49,8 @@ from dragmesh2_jax.physics.base import Backend, Kinematics, Start, WorldFields
 from dragmesh2_jax.physics.contacts import ContactBudget
 from dragmesh2_jax.physics.mujoco_backend import MujocoBackend
 from dragmesh2_jax.scene import FORCE_SIZE, Scene
-from dragmesh2_jax.task import randomize
+from dragmesh2_jax.task import expert, randomize
 from dragmesh2_jax.task.config import PEAK_COSTS, ResetNoise, TaskConfig
-from dragmesh2_jax.task.expert import RELATIVE_LOAD, expert_drag, expert_load, load_unit, planned_step, residual_step
 from dragmesh2_jax.task.observation import joint_geometry, load, phi, state_obs
 from dragmesh2_jax.task.protocol import METRICS, START_STEPS, Obs, State
 from dragmesh2_jax.task.rewards import (
@@ -99,6 +98,7 @@ class TaskParams:
     schedule: jnp.ndarray  # (episode_length,) the target joint after each step of the expert drag at its own pace
     drag: jnp.ndarray  # (episode_length, 51) the expert drag's hand targets per step (TaskConfig.expert_prior), or (0,)
     expert_load: jnp.ndarray  # (bank, 4) N, the expert's peak wrist load per start at x1-x8, relative_load's unit
+    expert_pace: jnp.ndarray  # (bank,) m/s, the expert's settled palm peak per start at x1, relative_palm_speed's unit
     aram_lambda: jnp.ndarray = struct.field(default_factory=lambda: jnp.float32(0.0))
     multipliers: jnp.ndarray = struct.field(default_factory=lambda: jnp.zeros(0, jnp.float32))
     # the object's probability of being drawn at a reset of an object mix (task/mix.py; set there by the trainer)
@@ -199,25 +199,25 @@ class PullTask:
         self.scene, self.traj, self.config = scene, traj, config
         starts = reset_starts(scene, traj, config.reset_noise, start, config.rho)
         self.backend = make_backend(scene, config, starts, traj)
+        substeps = self.substeps = self.backend.substeps
         lo, hi = scene.ids.hand_range[:, 0], scene.ids.hand_range[:, 1]
         axis, radius, sign = joint_geometry(scene)
-        nominal = reset_starts(scene, traj, None, start, config.rho)[0]
+        probe = (scene, traj, config, reset_starts(scene, traj, None, start, config.rho)[0], starts, substeps, costs)
         params = TaskParams(q_start=jnp.float32(traj.q_start), q_goal=jnp.float32(traj.q_goal),
                             q_done=jnp.float32(traj.q_done_at(config.rho)), damping=jnp.float32(scene.config.damping),
                             hand_lo=jnp.asarray(lo, jnp.float32), hand_hi=jnp.asarray(hi, jnp.float32),
                             revolute=jnp.bool_(scene.ids.target_is_revolute), long_sign=jnp.float32(sign),
                             joint_axis=jnp.asarray(axis, jnp.float32), hinge_radius=jnp.float32(radius),
                             schedule=jnp.asarray(traj.drag_schedule(config.control_dt, config.episode_length)),
-                            drag=jnp.asarray(expert_drag(scene, traj, config)),
-                            expert_load=jnp.asarray(expert_load(scene, traj, config, nominal, starts,
-                                                                self.backend.substeps, costs)),
+                            drag=jnp.asarray(expert.expert_drag(scene, traj, config)),
+                            expert_load=jnp.asarray(expert.expert_load(*probe)),
+                            expert_pace=jnp.asarray(expert.expert_pace(*probe)),
                             multipliers=jnp.zeros(len(config.reward.constraints), jnp.float32))
         start_ctrl = jnp.clip(jnp.asarray(np.stack([h for h, _ in starts]), jnp.float32), lo, hi)
         self.data = TaskData(physics=self.backend.data, params=params, start_ctrl=start_ctrl,
                              fields={f: jnp.asarray(getattr(scene.model, f)) for f in randomize.FIELDS})
         self.action_size = len(scene.ids.hand_qpos)  # 51 for the hand, 8 for the gripper
         self.active = jnp.asarray(scene.config.active_dofs())
-        self.substeps = self.backend.substeps
 
     def check_overflow(self, count: int, where: str) -> None:
         """A clear error when ``count`` world-steps overflowed the engine's contact or constraint buffers."""
@@ -354,14 +354,13 @@ class PullTask:
             # reward-stage rings of 2K+1 and the ARAM / Reconfig state (design §5)
             "d_long": jnp.full((2 * K1 - 1,), d), "q_long": jnp.full((2 * K1 - 1,), k.obj_q, jnp.float32),
             "stall": jnp.int32(0), "cooldown": jnp.int32(0),
-            **({"drag_begun": planned_step(self.params, k.obj_q)} if c.prior_from_start else {}),  # expert.drag_step
+            **({"drag_begun": expert.planned_step(self.params, k.obj_q)} if c.prior_from_start else {}),  # drag_step's
         }
         obs = Obs(state=state_obs(c, k, self.params), history=history, aux=self._aux(info),
                   privileged=self._privileged(info, k), step=info["step"])
         zero = jnp.float32(0.0)
         metrics = ({m: zero for m in METRICS} | {cost_metric(x): zero for x in c.reward.constraints}
-                   | {TERM_PREFIX + t: zero for t in term_names(c.reward)})
-        metrics["q"] = k.obj_q.astype(jnp.float32)
+                   | {TERM_PREFIX + t: zero for t in term_names(c.reward)} | {"q": k.obj_q.astype(jnp.float32)})
         return State(physics=ps, obs=obs, reward=zero, done=jnp.bool_(False), terminated=jnp.bool_(False),
                      truncated=jnp.bool_(False), final_obs=obs, metrics=metrics, info=info)
 
@@ -382,7 +381,7 @@ class PullTask:
         a = jnp.clip(action, -1.0, 1.0).astype(jnp.float32)
         k0 = self.kinematics(state)
         if self.config.expert_prior:
-            ctrl, applied, own = residual_step(self.config, self.params, state.info, k0.hand_q, k0.obj_q, a)
+            ctrl, applied, own = expert.residual_step(self.config, self.params, state.info, k0.hand_q, k0.obj_q, a)
             return self._advance(state, ctrl, applied, k0.palm, own)
         ctrl = jnp.clip(k0.hand_q + self.config.alpha * a, self.params.hand_lo, self.params.hand_hi)
         return self._advance(state, ctrl, a, k0.palm)
@@ -419,14 +418,16 @@ class PullTask:
                       truncated=(step >= c.episode_length) & ~terminated, step=step)
 
     def _measures(self, palm_before: jnp.ndarray, k: Kinematics, a: jnp.ndarray, a_prev: jnp.ndarray, ev: Events,
-                  unit: jnp.ndarray, own: jnp.ndarray) -> dict[str, jnp.ndarray]:
-        """This step's value of each quantity a constraint can bound (``config.MEASURES``; ``unit``: the relative
-        load's, the expert's peak at this world's start and damping; the saturations of ``own``)."""
-        p = self.params
+                  info: dict, own: jnp.ndarray) -> dict[str, jnp.ndarray]:
+        """This step's value of each quantity a constraint can bound (``config.MEASURES``; the relative ones in the
+        expert's units at this world's start and damping; the saturations of ``own``)."""
+        p, start = self.params, info["start"]
         lag = (p.schedule[ev.step - 1] - ev.q) / (p.q_goal - p.q_start)  # one schedule entry per step
         load, palm_speed = jnp.linalg.norm(k.force[:3]), jnp.linalg.norm(k.palm - palm_before) / self.config.control_dt
-        return {"load": load, RELATIVE_LOAD: load / unit, "lag": lag, "lead": -lag, "palm_speed": palm_speed,
-                "settled_palm_speed": jnp.where(ev.step > START_STEPS, palm_speed, 0.0),
+        settled = jnp.where(ev.step > START_STEPS, palm_speed, 0.0)
+        unit = expert.load_unit(p.expert_load[start], info["scales"][randomize.DAMPING])
+        return {"load": load, expert.RELATIVE_LOAD: load / unit, "lag": lag, "lead": -lag, "palm_speed": palm_speed,
+                "settled_palm_speed": settled, expert.RELATIVE_PACE: settled / p.expert_pace[start],
                 "saturation": jnp.max(jnp.where(self.active, jnp.abs(own), 0.0)),
                 "wrist_saturation": jnp.max(jnp.abs(own[:NUM_VIRTUAL])), "penetration": k.penetration,
                 "action_change": jnp.where(ev.step > 1, jnp.mean(jnp.abs(a - a_prev)), 0.0)}
@@ -465,9 +466,7 @@ class PullTask:
         ps, k, finite = self._physics(state, ctrl)
         overflow = self.backend.overflow(self.data.physics, ps)
         ev = self._events(info, k, finite)
-        measures = self._measures(palm_before, k, a, applied_action(state.obs, self.action_size), ev,
-                                  load_unit(self.params.expert_load[info["start"]], info["scales"][randomize.DAMPING]),
-                                  own)
+        measures = self._measures(palm_before, k, a, applied_action(state.obs, self.action_size), ev, info, own)
         costs = jnp.asarray([jnp.where(finite, constraint_cost(x, measures[x.measure], info["passed"][i]), 0.0)
                              for i, x in enumerate(c.reward.constraints)], jnp.float32)
         reward, terms, reward_state = self._reward(state, a, own, k, ev, finite, costs)

@@ -20,11 +20,14 @@ from dragmesh2_jax.physics import contacts
 from dragmesh2_jax.physics.base import Start
 from dragmesh2_jax.scene import Scene
 from dragmesh2_jax.task.config import TaskConfig
+from dragmesh2_jax.task.protocol import START_STEPS
 from dragmesh2_jax.task.starts import reset_starts
 from dragmesh2_jax.trajectory.schema import Trajectory
 
 #: The measure whose unit is the expert's peak wrist load (``config.MEASURES``).
 RELATIVE_LOAD = "relative_load"
+#: The measure whose unit is the expert's settled palm peak speed at x1 (``config.MEASURES``).
+RELATIVE_PACE = "relative_palm_speed"
 #: The damping multipliers the expert's load is probed at (the recipe's training range, an octave apart); between
 #: them it is interpolated in log-damping, beyond them held at the nearest.
 LOAD_DAMPINGS = (1.0, 2.0, 4.0, 8.0)
@@ -124,42 +127,63 @@ def expert_load(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Sta
     reset ``bank``: every row from the task's unperturbed start ``nominal`` (``config.expert_load_unit`` "grasp", or
     not ``per_start``) or each from its own start ("start"), each up to success; probed only when a constraint reads
     ``relative_load`` (else NaN, never read)."""
-    shape = (len(bank), len(LOAD_DAMPINGS))
-    if not any(c.measure == RELATIVE_LOAD for c in config.reward.constraints):
+    return _probed(scene, traj, config, nominal, bank, substeps, per_start, RELATIVE_LOAD, LOAD_DAMPINGS,
+                   lambda r: r.peak_load)
+
+
+def expert_pace(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Start, bank: list[Start],
+                substeps: int, per_start: bool = True) -> np.ndarray:
+    """The expert drag's settled palm peak speed (m/s; after the episode's first ``START_STEPS``, as the evaluation's
+    figure) at x1, one row per start of the reset ``bank`` as :func:`expert_load`'s; probed only when a constraint
+    reads ``relative_palm_speed`` (else NaN)."""
+    return _probed(scene, traj, config, nominal, bank, substeps, per_start, RELATIVE_PACE, (1.0,),
+                   lambda r: r.palm_peak)[:, 0]
+
+
+def _probed(scene: Scene, traj: Trajectory, config: TaskConfig, nominal: Start, bank: list[Start], substeps: int,
+            per_start: bool, measure: str, dampings: tuple[float, ...], read) -> np.ndarray:
+    """``read`` of the expert drag's replay (``contacts.replay``) at each of ``dampings`` (columns), one row per start
+    of ``bank`` (:func:`expert_load`), cached; NaN where no constraint reads ``measure``."""
+    shape = (len(bank), len(dampings))
+    if not any(c.measure == measure for c in config.reward.constraints):
         return np.full(shape, np.nan, np.float32)
     if scene.config.effector != "hand":
-        raise DragMeshError(f"{RELATIVE_LOAD} needs the hand (the expert drag moves the hand, not a gripper)")
+        raise DragMeshError(f"{measure} needs the hand (the expert drag moves the hand, not a gripper)")
     targets, until = reachable_targets(scene, traj, config), traj.q_done_at(config.rho)
     rows = bank if per_start and config.expert_load_unit == "start" else [nominal]
-    cache = _load_cache(scene, targets, rows, substeps, config.settle_substeps, until)
-    peaks = _read_peaks(cache, len(rows))
-    if peaks is None:
-        peaks = np.asarray([[contacts.peak_load(scene, s, targets, substeps, config.settle_substeps, until, damping)
-                             for damping in LOAD_DAMPINGS] for s in rows], np.float32)
+    cache = _cache(scene, targets, rows, substeps, config.settle_substeps, until, measure, dampings)
+    values = _read_cached(cache, len(rows), len(dampings))
+    if values is None:
+        values = np.asarray([[read(contacts.replay(scene, s, targets, substeps, config.settle_substeps, until,
+                                                   damping, START_STEPS)) for damping in dampings] for s in rows],
+                            np.float32)
         with contextlib.suppress(OSError, DragMeshError):  # an unwritable cache only costs the next task the probe
-            atomic_write_bytes(cache, peaks.tobytes())
-    return np.broadcast_to(np.asarray(peaks, np.float32), shape).copy()
+            atomic_write_bytes(cache, values.tobytes())
+    return np.broadcast_to(values, shape).copy()
 
 
-def _load_cache(scene: Scene, targets: np.ndarray, rows: list[Start], substeps: int, settle_substeps: int,
-                until: float) -> Path:
-    """Where the expert's probed loads are kept (every task of the recipe probes them; the C engine's replays are
+def _cache(scene: Scene, targets: np.ndarray, rows: list[Start], substeps: int, settle_substeps: int,
+           until: float, measure: str, dampings: tuple[float, ...]) -> Path:
+    """Where the expert's probed figures are kept (every task of the recipe probes them; the C engine's replays are
     deterministic): keyed by the object folder's files, the scene and its model, the targets, the starts, the stepping
-    and MuJoCo's version."""
+    and MuJoCo's version; the loads in ``expert_load``, each other measure's in its own folder."""
+    stepping = (substeps, settle_substeps, float(until), dampings)
+    key = repr(stepping) if measure == RELATIVE_LOAD else repr((*stepping, START_STEPS))
     h = hashlib.sha256("\0".join([object_hash(scene.obj.folder), repr(scene.config), scene.xml, mujoco.__version__,
-                                   repr((substeps, settle_substeps, float(until), LOAD_DAMPINGS))]).encode())
+                                   key]).encode())
     h.update(np.ascontiguousarray(targets, np.float64).tobytes())
     for hand_q, q in rows:
         h.update(np.ascontiguousarray(hand_q, np.float64).tobytes() + np.float64(q).tobytes())
-    return cache_dir() / "expert_load" / f"{h.hexdigest()[:16]}.f32"
+    folder = "expert_load" if measure == RELATIVE_LOAD else f"expert_{measure}"
+    return cache_dir() / folder / f"{h.hexdigest()[:16]}.f32"
 
 
-def _read_peaks(path: Path, rows: int) -> np.ndarray | None:
-    """The cached loads (rows x ``LOAD_DAMPINGS``), or None where there are none whole."""
+def _read_cached(path: Path, rows: int, cols: int) -> np.ndarray | None:
+    """The cached figures (``rows`` x ``cols``), or None where there are none whole."""
     with contextlib.suppress(OSError):
         data = path.read_bytes()
-        if len(data) == rows * len(LOAD_DAMPINGS) * np.dtype(np.float32).itemsize:
-            return np.frombuffer(data, np.float32).reshape(rows, len(LOAD_DAMPINGS))
+        if len(data) == rows * cols * np.dtype(np.float32).itemsize:
+            return np.frombuffer(data, np.float32).reshape(rows, cols)
     return None
 
 

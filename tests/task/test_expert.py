@@ -47,9 +47,9 @@ def test_a_task_without_the_measure_does_not_probe_it():
     assert np.isnan(load_task(DOOR, None, backend="mujoco").params.expert_load).all()
 
 
-def _replay(task, start: int, fixed=None):
+def _replay(task, start: int, fixed=None, measure: str = "relative_load"):
     """One episode from bank start ``start`` at x1, the expert drag or the actions ``fixed`` (one for every step, or
-    one per step): per step up to the one that ends it, the relative load's cost and the critic's last input."""
+    one per step): per step up to the one that ends it, ``measure``'s cost and the critic's last input."""
     step = make_batched(task)[1]
     c = tracking_controller(task)
     policy = c.make_policy(True)
@@ -58,7 +58,7 @@ def _replay(task, start: int, fixed=None):
 
     def body(s, a):
         s = jax.vmap(task.step_target)(s, policy(c.params, s.obs, None)) if fixed is None else step(s, a[None])
-        return s, (s.metrics["cost_relative_load"][0], s.done[0], s.obs.privileged[0, -1])
+        return s, (s.metrics[f"cost_{measure}"][0], s.done[0], s.obs.privileged[0, -1])
 
     def run():
         s = jax.vmap(lambda k: task.reset(k, 1.0, start))(jax.random.split(jax.random.PRNGKey(0), 1))
@@ -76,6 +76,28 @@ def test_the_expert_replayed_never_pulls_past_its_own_peak_and_a_yank_does(door)
     yank = np.zeros(51, np.float32)
     yank[:3] = -1.0  # the wrist's translation, full speed one way
     assert _replay(door, 0, yank)[0].max() == 1.0
+
+
+def test_the_relative_paces_unit_is_the_experts_settled_palm_peak_and_only_a_hurried_palm_passes_it(door):
+    """The probe replays the expert drag at x1 from the grasp and keeps the palm's peak speed after the episode's
+    first START_STEPS, as the task measures it: replayed through the task the expert's palm never passes 1.01 of it,
+    and a wrist thrown back at full action does; a task that bounds no pace probes none."""
+    paced = load_task(DOOR, None, backend="mujoco", reward=RewardConfig(constraints=(
+        Constraint("relative_palm_speed", 1.01, "rate"),)))
+    unit = np.asarray(paced.params.expert_pace)
+    assert unit.shape == (1,) and 0.02 < unit[0] < 0.5, unit  # m/s: a hand's pace, not a jolt
+    assert _replay(paced, 0, measure="relative_palm_speed")[0].max() == 0.0
+    tight = load_task(DOOR, None, backend="mujoco", reward=RewardConfig(constraints=(
+        Constraint("relative_palm_speed", 0.98, "rate"),)))
+    assert _replay(tight, 0, measure="relative_palm_speed")[0].max() == 1.0  # the unit is the peak, not above it
+    yank = np.zeros(51, np.float32)
+    yank[:3] = -1.0
+    assert _replay(paced, 0, yank, measure="relative_palm_speed")[0].max() == 1.0
+    assert np.isnan(door.params.expert_pace).all()
+    own = load_task(DOOR, None, backend="mujoco", reward=paced.config.reward, reset_noise=ResetNoise(bank=3),
+                    expert_load_unit="start")
+    for i in range(3):  # each start held to the expert's own pace from there
+        assert _replay(own, i, measure="relative_palm_speed")[0].max() == 0.0
 
 
 def test_a_peak_cost_charges_every_step_after_the_first_pull_past_the_limit_and_the_critic_sees_it(door):
