@@ -200,3 +200,8 @@ WIDE_HAND: dict[str, Any] = {**WIDE, **reach(0.125, "hand")}
 OWN_PACE_LIMIT = 1.1
 OWN_PACE: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, budget=0.01),
                                                   load_budget=0.01)}
+#: Lever 36: that bound on each episode's peak, not on a rate: a surge of a step or two in the heavy worlds cost lever
+#: 35 under 2% of its steps (door 111's palm at x8 0.18 m/s, 2.3x its unit): every step after an episode's palm first
+#: passed 1.1x its unit is charged, on at most 1% of steps, and the critic sees whether it has (RULE.md).
+OWN_PACE_PEAK: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, "peak", 0.01),
+                                                       load_budget=0.01)}

@@ -48,6 +48,7 @@ from dragmesh2_jax.runs.overrides import (
     NO_PHYSICAL_SIGNALS,
     ON_TARGET,
     OWN_PACE,
+    OWN_PACE_PEAK,
     OWN_START,
     PEAK_BOUND,
     READ_FINAL,
@@ -320,6 +321,10 @@ METHODS = {m.name: m for m in (
     Method("hold_blind_residual_own_pace", "hold_blind_residual_wide_hand with its palm's pace bounded by its prior's "
            "own (1.1x the expert drag's settled palm peak at x1, not 0.15 m/s); 150 epochs, final checkpoint", OWN_PACE,
            status="experimental", evidence="results/screen/RULE.md (thirty-fifth lever)"),
+    Method("hold_blind_residual_own_pace_peak", "hold_blind_residual_own_pace with its pace bound on each episode's "
+           "peak (every step after the palm first passed 1.1x its prior's pace charged), not a rate of steps; 150 "
+           "epochs, final checkpoint", OWN_PACE_PEAK,
+           status="experimental", evidence="results/screen/RULE.md (thirty-sixth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
