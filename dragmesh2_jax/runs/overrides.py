@@ -205,3 +205,8 @@ OWN_PACE: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OW
 #: passed 1.1x its unit is charged, on at most 1% of steps, and the critic sees whether it has (RULE.md).
 OWN_PACE_PEAK: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, "peak", 0.01),
                                                        load_budget=0.01)}
+#: Lever 37: that peak charged to the horizon (HORIZON_BOUND's cost): door 111's palm under lever 36 surged in an
+#: episode's last 4-6 steps before success at x8 (the hand peeling off the bar as the door neared done), where a peak
+#: cost charges only the few steps left; now the episode also pays the steps it had left (RULE.md).
+OWN_PACE_HORIZON: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, "horizon", 0.01),
+                                                          load_budget=0.01)}

@@ -48,6 +48,7 @@ from dragmesh2_jax.runs.overrides import (
     NO_PHYSICAL_SIGNALS,
     ON_TARGET,
     OWN_PACE,
+    OWN_PACE_HORIZON,
     OWN_PACE_PEAK,
     OWN_START,
     PEAK_BOUND,
@@ -325,6 +326,10 @@ METHODS = {m.name: m for m in (
            "peak (every step after the palm first passed 1.1x its prior's pace charged), not a rate of steps; 150 "
            "epochs, final checkpoint", OWN_PACE_PEAK,
            status="experimental", evidence="results/screen/RULE.md (thirty-sixth lever)"),
+    Method("hold_blind_residual_own_pace_horizon", "hold_blind_residual_own_pace_peak with its pace bound charged to "
+           "the horizon (an episode that succeeds after its palm passed 1.1x its prior's pace pays the steps it had "
+           "left); 150 epochs, final checkpoint", OWN_PACE_HORIZON,
+           status="experimental", evidence="results/screen/RULE.md (thirty-seventh lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
