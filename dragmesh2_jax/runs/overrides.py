@@ -210,3 +210,7 @@ OWN_PACE_PEAK: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PAC
 #: cost charges only the few steps left; now the episode also pays the steps it had left (RULE.md).
 OWN_PACE_HORIZON: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, "horizon", 0.01),
                                                           load_budget=0.01)}
+#: Lever 38: lever 37 trained to x12 (log-uniform over [1, 12]): door 111's surge is x8's alone (none past 0.078 m/s at
+#: x6) and x8 the top of [1, 8], so its bound's cost read 0 in every epoch; x8 inside the range (RULE.md).
+WIDER_RANGE = (1.0, 12.0)
+OWN_PACE_WIDER: dict[str, Any] = {**OWN_PACE_HORIZON, "task.damping_range": WIDER_RANGE}

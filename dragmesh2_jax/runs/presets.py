@@ -50,6 +50,7 @@ from dragmesh2_jax.runs.overrides import (
     OWN_PACE,
     OWN_PACE_HORIZON,
     OWN_PACE_PEAK,
+    OWN_PACE_WIDER,
     OWN_START,
     PEAK_BOUND,
     READ_FINAL,
@@ -330,6 +331,9 @@ METHODS = {m.name: m for m in (
            "the horizon (an episode that succeeds after its palm passed 1.1x its prior's pace pays the steps it had "
            "left); 150 epochs, final checkpoint", OWN_PACE_HORIZON,
            status="experimental", evidence="results/screen/RULE.md (thirty-seventh lever)"),
+    Method("hold_blind_residual_own_pace_wider", "hold_blind_residual_own_pace_horizon trained over x1-x12 "
+           "(log-uniform), so that x8 lies inside its training range; 150 epochs, final checkpoint", OWN_PACE_WIDER,
+           status="experimental", evidence="results/screen/RULE.md (thirty-eighth lever)"),
     Method("hold_blind_residual_relative_excess", "hold_blind_residual_relative with the cost the load's excess over "
            "the expert's peak, not the rate of steps past it: at most 1% past it on average; 150 "
            "epochs, read at its final checkpoint",
