@@ -37,6 +37,7 @@ BUDGETS = [
     ("dragmesh2 inspect ", []),
     ("dragmesh2 objects list", []),
     ("dragmesh2 objects synth ", ["--category", "drawer_cabinet"]),
+    ("dragmesh2 objects twin ", []),
     ("dragmesh2 trajectory ", []),
     ("dragmesh2 dataset build --objects ", []),
     ("dragmesh2 dataset build --procedural ", ["--procedural", "1"]),
@@ -124,10 +125,12 @@ def test_the_readme_commands_run_as_written(tmp_path, monkeypatch, capsys, displ
     assert "StorageFurniture" in inspect and "prismatic" in inspect and "picture       grasp.png" in inspect
     assert Path("grasp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and Path("envelope.png").is_file()
     assert Path("t.json").is_file() and Path("dataset/manifest.csv").is_file() and Path("curves.json").is_file()
+    assert json.loads(Path("mw_twin/meta.json").read_text())["generator"]["twin"]["handle_length"] > 0
     for run in ("pica_45261", "hold", "pica3/seed_2", "mix", "ds", "mix_45780", "pica_45261_aram"):
         assert is_checkpoint(Path("runs", run, "checkpoints", "final")), run
     # a log gets one plain progress line per epoch, with the time taken and left
-    lines = [ln for ln in printed[BUDGETS[10][0]].err.splitlines() if ln.startswith("train pica: epoch")]
+    pica = "dragmesh2 train --method pica --object ../shared/gapartnet/45261 --out runs/pica_45261"
+    lines = [ln for ln in printed[pica].err.splitlines() if ln.startswith("train pica: epoch")]
     assert [ln.split()[3] for ln in lines] == ["1/2", "2/2"]
     assert all(re.search(r"elapsed \d+ s  left ~\d+ s$", ln) for ln in lines)
     assert '"epochs": 3' in Path("runs/pica_45261/run.json").read_text()  # the resume extended the record

@@ -12,7 +12,7 @@ import json
 import shutil
 import tempfile
 import zlib
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -79,9 +79,8 @@ _DRAWER_TRAVEL = (0.65, 0.9)
 
 
 def _streams(category: str, seed: int) -> dict[str, np.random.Generator]:
-    """One object's random streams, seeded by (geometry family, seed): each category draws its own hinge side,
-    standoff and ranges for a seed (one stream shared by all categories gave every category of a seed the same
-    hinge side). One stream per group of quantities, so a draw added to one group leaves the others' values."""
+    """One object's random streams, seeded by (geometry family, seed), so each category draws its own hinge side,
+    standoff and ranges; one per group of quantities, so a draw added to one group leaves the others' values."""
     if seed < 0:
         raise DragMeshError(f"a procedural seed must be >= 0, got {seed}")
     family = "door" if category in _DOORS else category  # a door and its double-knob twin share the geometry
@@ -101,6 +100,17 @@ class _Style:
     drop: float  # an edge pull's flange length (the slot the fingers hook)
     radius: float  # a knob's cap half size
     rose: bool  # a cabinet knob's base plate (three boxes, as a bar)
+    length: float | None = None  # a twin's handle length (m), kept as measured; None: drawn per handle
+
+
+@dataclass(frozen=True)
+class Twin:
+    """What a procedural twin keeps of a measured object (m, unscaled): its body's width, depth and height (its part's
+    size and mass follow), its handles' kind and length; the rest is its seed's, as any object's (``objects twin``)."""
+
+    dims: tuple[float, float, float]
+    handle_length: float
+    handle_kind: str = "bar"
 
 
 def _style(category: str, rng: np.random.Generator) -> _Style:
@@ -130,6 +140,7 @@ def _handle(style: _Style, centre, long_axis, length: float, edge, toward_edge, 
     if style.kind == "knob":
         boxes, bbox = knob(centre, style.standoff, style.radius, back, rose=style.rose)
         return boxes, bbox, "round_fixed_handle"
+    length = length if style.length is None else style.length
     if style.kind == "edge":
         boxes, bbox = edge_pull(edge, long_axis, toward_edge, length, style.standoff, style.plate, style.drop)
     else:
@@ -149,16 +160,10 @@ def _frame(W, D, H, t) -> list[Box]:
 
 
 def _shell(W, D, H, t, open_top=False) -> list[Box]:
-    """Cabinet body: back, two sides, top, bottom (front open). Front at x = -D/2."""
-    boxes = [
-        _box([D / 2 - t / 2, 0, 0], [t / 2, W / 2, H / 2]),
-        _box([0, W / 2 - t / 2, 0], [D / 2, t / 2, H / 2]),
-        _box([0, -W / 2 + t / 2, 0], [D / 2, t / 2, H / 2]),
-        _box([0, 0, -H / 2 + t / 2], [D / 2, W / 2, t / 2]),
-    ]
-    if not open_top:
-        boxes.append(_box([0, 0, H / 2 - t / 2], [D / 2, W / 2, t / 2]))
-    return boxes
+    """Cabinet body: back, two sides, bottom and (unless ``open_top``) top; the front open, at x = -D/2."""
+    return [_box([D / 2 - t / 2, 0, 0], [t / 2, W / 2, H / 2]), _box([0, W / 2 - t / 2, 0], [D / 2, t / 2, H / 2]),
+            _box([0, -W / 2 + t / 2, 0], [D / 2, t / 2, H / 2]), _box([0, 0, -H / 2 + t / 2], [D / 2, W / 2, t / 2])
+            ] + ([] if open_top else [_box([0, 0, H / 2 - t / 2], [D / 2, W / 2, t / 2])])
 
 
 @dataclass
@@ -238,19 +243,23 @@ def _side_door(p: _Parts, suffix: str, category, W, D, zl, zh, sgn, style, rng, 
         [0, -sgn, 0], back))
 
 
-def make_object(category: str, seed: int, hinge_side: str | None = None) -> dict:
+def make_object(category: str, seed: int, hinge_side: str | None = None, twin: Twin | None = None) -> dict:
     """Geometry and annotations of one procedural object (object frame, unscaled), reproducible from
     ``(category, seed)``; ``hinge_side`` ("left"/"right", seen from the front) overrides a side door's draw and
-    nothing else."""
+    nothing else, ``twin`` the size and the handles (every draw still made, so the rest is the seed's)."""
     if category not in CATEGORIES:
         raise DragMeshError(f"unknown procedural category {category!r} (choose from {', '.join(CATEGORIES)})")
     model_cat, kind = CATEGORIES[category]
     rng = _streams(category, seed)
     t = _T
-    W, D, H = (float(rng["dims"].uniform(a, b)) for a, b in _DIMS["door" if category in _DOORS else category])
-    drawn_side = "left" if rng["hinge"].uniform() < 0.5 else "right"
-    hinge_side = hinge_side or drawn_side
+    drawn = [float(rng["dims"].uniform(a, b)) for a, b in _DIMS["door" if category in _DOORS else category]]
+    W, D, H = drawn if twin is None else map(float, twin.dims)
+    hinge_side = hinge_side or ("left" if rng["hinge"].uniform() < 0.5 else "right")  # the hinge stream's only draw
     style = _style(category, rng["handle"])
+    if twin is not None:
+        if twin.handle_kind not in HANDLE_KINDS[category] or min(*twin.dims, twin.handle_length) <= 0:
+            raise DragMeshError(f"a {category} twin needs sizes > 0 and a handle: {', '.join(HANDLE_KINDS[category])}")
+        style = replace(style, kind=twin.handle_kind, length=float(twin.handle_length))
     travel = float(rng["joint"].uniform(*_DRAWER_TRAVEL))
     limits = [round(float(np.radians(rng["joint"].uniform(*_DOOR_RANGE_DEG))), 4) for _ in range(2)]
     body_boxes = _frame(W, D, H, t) if category in _DOORS else _shell(W, D, H, t, open_top=(kind == "lid"))
@@ -294,7 +303,7 @@ def make_object(category: str, seed: int, hinge_side: str | None = None) -> dict
             style, [-D / 2, 0.0, H / 2 + t / 2], [0, 1.0, 0], _length(fraction, W), None, None))
     return {"category": category, "model_cat": model_cat, "seed": seed, "dims": [W, D, H], "links": [body, *p.links],
             "joints": p.joints, "parts": p.parts, "hinge_side": hinge_side if kind == "side_door" else None,
-            "handle_kind": style.kind, "variant": variant}
+            "handle_kind": style.kind, "variant": variant, "twin": None if twin is None else asdict(twin)}
 
 
 def _fmt(v) -> str:
@@ -354,10 +363,8 @@ def write_object(spec: dict, folder: str | Path, object_id: str) -> Path:
         (tmp / "link_annotation_gapartnet.json").write_text(json.dumps(ann, indent=1))
         sem = [f"{lk.name} {lk.semantic[0]} {lk.semantic[1]}" for lk in spec["links"]]
         (tmp / "semantics_gapartnet.txt").write_text("\n".join(sem) + "\n")
-        mob = []
-        for j in spec["joints"]:
-            if j["type"] == "fixed":
-                continue
+        mob: list[dict] = []
+        for j in (j for j in spec["joints"] if j["type"] != "fixed"):
             mob.append({"id": len(mob), "parent": 0, "joint": "slider" if j["type"] == "prismatic" else "hinge",
                         "name": j["child"], "jointData": {
                             "axis": {"origin": list(np.asarray(j["pivot"], float) @ _R_ROOT),
@@ -367,7 +374,8 @@ def write_object(spec: dict, folder: str | Path, object_id: str) -> Path:
         meta = {"model_cat": spec["model_cat"], "anno_id": object_id, "procedural": True,
                 "generator": {"version": PROCEDURAL_VERSION, "category": spec["category"], "seed": spec["seed"],
                               "dims_WDH": spec["dims"], "hinge_side": spec["hinge_side"],
-                              "handle_kind": spec["handle_kind"], "variant": spec["variant"]}}
+                              "handle_kind": spec["handle_kind"], "variant": spec["variant"],
+                              **({"twin": spec["twin"]} if spec["twin"] else {})}}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
         tmp.rename(folder)
     except BaseException:

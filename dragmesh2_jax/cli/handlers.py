@@ -104,6 +104,15 @@ def cmd_objects(args) -> int:
         print(*paths, sep="\n")
         _err(f"{len(paths)} objects in {args.out}")
         return 0
+    if args.objects_cmd == "twin":
+        sizes = parse_floats(args.dims, "--dims", above=0.0)
+        if len(sizes) != 3:
+            raise DragMeshError(f"--dims takes W,D,H (three sizes), got {args.dims!r}")
+        unscaled = 1.0 / SceneConfig().scale  # the generator's frame, which the scene scales
+        twin = procedural.Twin(tuple(x * unscaled for x in sizes), args.handle_length * unscaled, args.handle_kind)
+        print(procedural.write_object(procedural.make_object(args.category, args.seed, twin=twin), args.out,
+                                      object_id=Path(args.out).name))
+        return 0
     print("categories:", ", ".join(procedural.CATEGORIES))
     print(*procedural.default_objects(), sep="\n")
     return 0

@@ -107,6 +107,14 @@ def build_parser() -> argparse.ArgumentParser:
     ps.add_argument("--count", type=POSITIVE, default=1, help="objects per category")
     ps.add_argument("--seed", type=int, default=0, help="seed of the first object (each next one: +1)")
     ps.add_argument("--out", required=True)
+    pw = osub.add_parser("twin", help="write a procedural twin of a measured object: its size and handle kept, the "
+                                      "rest drawn from --seed (the part's mass follows its size: `inspect` reports it)")
+    pw.add_argument("--category", required=True, help="the twin's category (`objects list`)")
+    pw.add_argument("--dims", required=True, metavar="W,D,H", help="the body's width, depth and height, m in the scene")
+    pw.add_argument("--handle-length", required=True, type=float, help="m in the scene")
+    pw.add_argument("--handle-kind", default="bar", help="bar, edge or knob, of those the category has")
+    pw.add_argument("--seed", type=int, default=0, help="the seed the rest is drawn from")
+    pw.add_argument("--out", required=True, help="the object folder to write (never overwritten)")
     osub.add_parser("list", help="categories and the packaged default objects")
     po.set_defaults(func=cmd_objects)
 

@@ -338,6 +338,34 @@ def test_the_refrigerator_and_microwave_mixes_hold_small_light_doors(tmp_path):
     assert lightest["refrigerator"][3] == "freezer door"
 
 
+def test_a_twin_keeps_the_measured_size_and_handle_and_draws_the_rest_from_its_seed(tmp_path):
+    """``objects twin`` (scene metres) as the issue's unseen microwave: a 46 mm bar on a door of about 2 kg, beyond the
+    mix's microwaves (0.35-0.7 m tall, handles from 0.15 m unscaled). The twin keeps its size and its handle as given;
+    its hinge side, handle standoff and range are its seed's, as the drawn object's; a bad twin is one error line."""
+    from tests.conftest import installed_command
+
+    dragmesh2 = installed_command()
+    folder = tmp_path / "microwave_twin"
+    assert dragmesh2(["objects", "twin", "--category", "microwave", "--dims", "0.42,0.3,0.42", "--handle-length",
+                      "0.046", "--seed", "3", "--out", str(folder)]) == 0
+    obj, drawn = load_gapartnet(folder), procedural.make_object("microwave", 3)
+    meta = json.loads((folder / "meta.json").read_text())["generator"]
+    np.testing.assert_allclose(meta["dims_WDH"], np.array([0.42, 0.3, 0.42]) / SCALE)
+    assert meta["twin"]["handle_kind"] == meta["handle_kind"] == "bar"
+    assert meta["hinge_side"] == drawn["hinge_side"]
+    assert obj.target.joint.upper == pytest.approx(drawn["joints"][0]["limit"][1])
+    scene = build_scene(obj, use_cache=False)
+    assert scene.handle.length == pytest.approx(0.046, abs=1e-3)
+    assert 1.8 < scene.stats["target_mass_kg"] < 2.3  # the unseen door's 2 kg, from its size alone
+    assert "twin" not in json.loads((procedural.write_object(drawn, tmp_path / "drawn", "drawn") / "meta.json")
+                                    .read_text())["generator"]  # a drawn object's files are as before
+    for bad in (["--handle-kind", "knob"], ["--handle-length", "-0.01"], ["--dims", "0.4,0.3"]):
+        args = {"--dims": "0.42,0.3,0.42", "--handle-length": "0.046", **dict(zip(bad[::2], bad[1::2], strict=True))}
+        assert dragmesh2(["objects", "twin", "--category", "microwave", "--out", str(tmp_path / "bad"),
+                          *[x for kv in args.items() for x in kv]]) == 2
+    assert not (tmp_path / "bad").exists()
+
+
 def _first_seed(category: str, kind: str, variant: str | None = None) -> int:
     return next(s for s in range(500) if procedural.make_object(category, s)["handle_kind"] == kind
                 and procedural.make_object(category, s)["variant"] == variant)
