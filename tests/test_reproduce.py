@@ -21,7 +21,7 @@ from dragmesh2_jax.reproduce import (
     plan,
     reproduce,
 )
-from dragmesh2_jax.reproduce.report import physical_table
+from dragmesh2_jax.reproduce.report import physical_table, write_table
 from dragmesh2_jax.runs.presets import RECOMMENDED
 from tests.conftest import installed_command
 
@@ -202,6 +202,32 @@ def test_one_real_table_on_a_tiny_preset(tmp_path):
     assert run.trained_epochs() == 2 and run.spec().method == "pica"
     result = run.evaluation(run.checkpoint("best_robust"), c.protocol())
     assert [cell["damping"] for cell in result["cells"]] == [1.0, 2.0, 4.0, 8.0] * 2
+
+
+def test_on_the_hands_contacts_every_row_trains_and_is_evaluated_on_the_firm_grip(tmp_path, monkeypatch):
+    """``--contacts hand``: each trained row's run records the firm grip's scene (the hand's object contacts, 2 N m
+    finger drives) and each controller is evaluated on it; the default keeps MuJoCo's; the table says which; an unknown
+    physics is one error line."""
+    trained, scenes = [], []
+    monkeypatch.setattr(executor, "start_or_resume", lambda spec, *a, **k: trained.append(spec.scene))
+    real_load = executor.load_task
+    monkeypatch.setattr(executor, "load_task", lambda *a, **k: scenes.append(k["scene_config"]) or real_load(*a, **k))
+    hand = dataclasses.replace(TINY, methods=("tracking", "pica"), contacts="hand")
+    for c in (hand, dataclasses.replace(hand, contacts="mujoco")):
+        for step in plan("main", c):
+            if isinstance(step, Run):
+                executor._train(step, c, tmp_path / c.contacts)
+            elif step.run is None:
+                executor._evaluate(step, c, tmp_path / c.contacts)
+    (firm, firm_tracked), (default, default_tracked) = zip(trained, scenes, strict=True)
+    assert firm.object_contact == firm_tracked.object_contact == "hand"
+    assert firm.hand.finger.force_limit == firm_tracked.hand.finger.force_limit == 2.0
+    assert default == default_tracked == executor.SceneConfig()
+    tracked = [executor._evaluate(e, hand, tmp_path / "hand") for e in plan("main", hand) if isinstance(e, Eval)
+               and e.run is None]
+    assert "hand's contacts" in write_table("main", hand, tracked, tmp_path / "hand").read_text()
+    with pytest.raises(DragMeshError, match="contacts"):
+        dataclasses.replace(TINY, contacts="soft")
 
 
 def test_the_physical_table_reads_an_evaluation_made_before_the_settled_palm_figure():

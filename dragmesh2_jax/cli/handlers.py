@@ -391,7 +391,7 @@ def cmd_reproduce(args) -> int:
                              train_objects=args.train_objects,
                              dataset=args.dataset, holdout=args.holdout, video_every=args.video_every,
                              scaling=tuple(int(n) for n in parse_floats(args.scaling, "--scaling", minimum=1)),
-                             modes=tuple(_modes(args.mode)), checkpoint=args.checkpoint_rule)
+                             modes=tuple(_modes(args.mode)), checkpoint=args.checkpoint_rule, contacts=args.contacts)
     for path in reproduce(args.tables, config, args.out, progress=not args.quiet, run=not args.tables_only):
         print(path.read_text())
         _err(f"table: {path}")

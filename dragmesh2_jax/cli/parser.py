@@ -32,7 +32,14 @@ from dragmesh2_jax.evaluation.evaluate import ENVELOPE_DAMPINGS, ENVELOPE_PACES
 from dragmesh2_jax.evaluation.protocol import PAPER
 from dragmesh2_jax.ppo.config import PAPER_EPOCHS, PPOConfig
 from dragmesh2_jax.render import RENDERERS, VIDEO_EVERY
-from dragmesh2_jax.reproduce import CHECKPOINTS, GENERALIST_HOLDOUT, GENERALIST_OBJECTS, SCALING_OBJECTS, TABLES
+from dragmesh2_jax.reproduce import (
+    CHECKPOINTS,
+    CONTACTS,
+    GENERALIST_HOLDOUT,
+    GENERALIST_OBJECTS,
+    SCALING_OBJECTS,
+    TABLES,
+)
 from dragmesh2_jax.runs.finetunes import FINETUNES
 from dragmesh2_jax.runs.generalist import OPEN_EPISODES
 from dragmesh2_jax.runs.overrides import RECIPE_DAMPINGS
@@ -319,6 +326,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "for the paper's, final for the recipe)")
     prp.add_argument("--video-every", type=NONNEGATIVE, default=VIDEO_EVERY,
                      help="control steps between video frames of each method's video (0: no videos)")
+    prp.add_argument("--contacts", choices=list(CONTACTS), default="mujoco",
+                     help="the physics every row trains and is evaluated on: MuJoCo's default object contacts, or the "
+                          "hand's firm grip the recipe's levers use")
     prp.add_argument("--out", default="out/reproduce", help="the reproduction's folder (resumable)")
     prp.add_argument("--backend", default="auto", help="mjx | mujoco | auto (MJX on an accelerator, C on a CPU)")
     prp.add_argument("--quiet", action="store_true")

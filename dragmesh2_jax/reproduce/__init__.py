@@ -56,11 +56,11 @@ from dragmesh2_jax.reproduce.paper import (
     SCALING_OBJECTS,
     TABLES,
 )
-from dragmesh2_jax.reproduce.planning import Eval, ReproduceConfig, Run, plan, read_plans, write_plans
+from dragmesh2_jax.reproduce.planning import CONTACTS, Eval, ReproduceConfig, Run, plan, read_plans, write_plans
 from dragmesh2_jax.reproduce.report import write_table
 
-__all__ = ["CHECKPOINTS", "GENERALIST_HOLDOUT", "GENERALIST_OBJECTS", "PAPER_CELLS", "PAPER_OBJECTS", "SCALING_OBJECTS",
-           "TABLES", "Eval", "ReproduceConfig", "Run", "plan", "reproduce"]
+__all__ = ["CHECKPOINTS", "CONTACTS", "GENERALIST_HOLDOUT", "GENERALIST_OBJECTS", "PAPER_CELLS", "PAPER_OBJECTS",
+           "SCALING_OBJECTS", "TABLES", "Eval", "ReproduceConfig", "Run", "plan", "reproduce"]
 
 
 def reproduce(tables: list[str], c: ReproduceConfig, out: str | Path, progress: bool = True,

@@ -17,12 +17,13 @@ from dragmesh2_jax.io import atomic_write_json
 from dragmesh2_jax.progress import LogLines, to_log
 from dragmesh2_jax.render import render_policy_video
 from dragmesh2_jax.reproduce.paper import FINETUNE_EPOCHS, GENERALIST_OBJECT_SEED
-from dragmesh2_jax.reproduce.planning import Eval, ReproduceConfig, Run, plan
+from dragmesh2_jax.reproduce.planning import CONTACTS, Eval, ReproduceConfig, Run, plan
 from dragmesh2_jax.runs.build import load_task
 from dragmesh2_jax.runs.commands import baseline_controllers, dataset_objects, finetune_run, load_run
 from dragmesh2_jax.runs.rundir import epoch_name
 from dragmesh2_jax.runs.session import start_or_resume
 from dragmesh2_jax.runs.spec import ROBUST_EVERY, apply_overrides, method_spec
+from dragmesh2_jax.scene import SceneConfig
 from dragmesh2_jax.trajectory.dataset import build_dataset
 
 
@@ -36,15 +37,17 @@ def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
     ppo = {"num_envs": c.num_envs}
     if run.train_objects:  # no best_robust: the table reads the checkpoints along the budget
         objects, trajectories = _scaling_subset(c, out, run.train_objects)
-        spec = method_spec(run.method, objects, ppo, backend=c.backend,
+        spec = method_spec(run.method, objects, ppo, backend=c.backend, scene=CONTACTS[c.contacts],
                            schedule={**schedule, "save_every": c.scaling_epochs[0], "robust_every": 0})
         start_or_resume(spec, [folder], trajectory=trajectories, progress=False)
     elif run.generalist:
         objects, trajectories = dataset_objects(_dataset(c, out))
-        spec = method_spec(run.method, objects, ppo, backend=c.backend, holdout=c.holdout, schedule=schedule)
+        spec = method_spec(run.method, objects, ppo, backend=c.backend, scene=CONTACTS[c.contacts], holdout=c.holdout,
+                           schedule=schedule)
         start_or_resume(spec, [folder], trajectory=trajectories, progress=False)
     elif run.parent is None:
-        spec = method_spec(run.method, run.object, ppo, backend=c.backend, schedule=schedule)
+        spec = method_spec(run.method, run.object, ppo, backend=c.backend, scene=CONTACTS[c.contacts],
+                           schedule=schedule)
         start_or_resume(spec, [folder], progress=False)  # new, interrupted or extended
     elif folder.exists() and folder.epoch_checkpoints():  # the next stage: the recorded fine-tune, longer
         spec = apply_overrides(folder.spec(), {f"schedule.{k}": v for k, v in schedule.items()})
@@ -82,7 +85,9 @@ def _scaling_subset(c: ReproduceConfig, out: Path, n: int) -> tuple[list[str], l
 def _evaluate(ev: Eval, c: ReproduceConfig, out: Path) -> dict:
     if ev.run is None:
         p = c.controller_protocol
-        task, controller = baseline_controllers()[ev.controller](p.task(load_task(ev.object, None, c.backend)))
+        scene = apply_overrides(SceneConfig(), CONTACTS[c.contacts])
+        task, controller = baseline_controllers()[ev.controller](p.task(load_task(ev.object, None, c.backend,
+                                                                                  scene_config=scene)))
         result = evaluate(task, controller, p)
         result.update(label=ev.label, seed=ev.seed, object=Path(ev.object).name)
         atomic_write_json(ev.path(out, c), result)

@@ -32,9 +32,15 @@ from dragmesh2_jax.reproduce.paper import (
     TRAIN_LENGTHS,
 )
 from dragmesh2_jax.runs.commands import baseline_controllers
+from dragmesh2_jax.runs.overrides import FIRM_GRIP
 from dragmesh2_jax.runs.presets import METHODS, RECOMMENDED
 from dragmesh2_jax.runs.rundir import RunDir, epoch_name
 from dragmesh2_jax.runs.spec import method_defaults
+
+#: The physics every row trains and is evaluated on (``reproduce --contacts``), as changes to the scene: MuJoCo's
+#: default object contacts (the paper's tables as measured so far) or the hand's firm grip the recipe's levers hold
+#: with (FIRM_GRIP: the fingers about 1 mm into a handle where the default lets them sink 4-9 mm).
+CONTACTS = {"mujoco": {}, "hand": {k.removeprefix("scene."): v for k, v in FIRM_GRIP.items()}}
 
 
 @dataclass(frozen=True)
@@ -61,6 +67,7 @@ class ReproduceConfig:
     # the checkpoint of each run a main or ablation cell evaluates: best_robust (selected during training by the
     # paper's robustness protocol), final (the run's last epoch), or None: each method's own rule
     checkpoint: str | None = None
+    contacts: str = "mujoco"  # the physics of every row (CONTACTS)
 
     def __post_init__(self):
         if not self.objects:
@@ -90,6 +97,8 @@ class ReproduceConfig:
             raise DragMeshError(f"the scaling table needs distinct training-set sizes >= 1, got {self.scaling}")
         if self.checkpoint is not None and self.checkpoint not in CHECKPOINTS:
             raise DragMeshError(f"checkpoint must be one of {', '.join(CHECKPOINTS)}, got {self.checkpoint!r}")
+        if self.contacts not in CONTACTS:
+            raise DragMeshError(f"contacts must be one of {', '.join(CONTACTS)}, got {self.contacts!r}")
         if not self.modes or not set(self.modes) <= set(MODES):
             raise DragMeshError(f"evaluation modes must be some of {', '.join(MODES)}, got {self.modes}")
 

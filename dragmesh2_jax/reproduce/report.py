@@ -354,7 +354,7 @@ def write_table(table: str, c: ReproduceConfig, results: list[dict], out: Path, 
         return out / f"{table}.md"
     budget = (f"{len(c.seeds)} seed(s) {', '.join(map(str, c.seeds))}; base {c.epochs} epochs; "
               f"{c.episodes_of(table in PROJECT_TABLES)} episodes per cell from distinct perturbed starts; backend "
-              f"{c.backend}")
+              f"{c.backend}; {c.contacts}'s contacts")
     lines = [f"# reproduce {table}", "", budget, ""]
     missing = _missing(table, c, results)
     if missing:
