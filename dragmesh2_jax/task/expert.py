@@ -1,6 +1,7 @@
 """The expert drag as the task reads it, beyond the paper: the prior a residual policy adds to
-(``TaskConfig.expert_prior``) and the unit of the ``relative_load`` measure, the expert's own peak wrist load on the
-object at the world's damping, so that one constraint bounds every object's pull by what its expert needs there."""
+(``TaskConfig.expert_prior``) and the units of the relative measures: ``relative_load``'s, the expert's own peak wrist
+load on the object at the world's damping, so that one constraint bounds every object's pull by what its expert needs
+there, and ``relative_palm_speed``'s, its settled palm peak at x1, so that one bounds every object's pace by its own."""
 
 from __future__ import annotations
 
@@ -168,6 +169,7 @@ def _cache(scene: Scene, targets: np.ndarray, rows: list[Start], substeps: int, 
     deterministic): keyed by the object folder's files, the scene and its model, the targets, the starts, the stepping
     and MuJoCo's version; the loads in ``expert_load``, each other measure's in its own folder."""
     stepping = (substeps, settle_substeps, float(until), dampings)
+    # the loads keyed as before the pace was probed, so the loads already cached stay valid
     key = repr(stepping) if measure == RELATIVE_LOAD else repr((*stepping, START_STEPS))
     h = hashlib.sha256("\0".join([object_hash(scene.obj.folder), repr(scene.config), scene.xml, mujoco.__version__,
                                    key]).encode())
