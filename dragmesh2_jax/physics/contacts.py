@@ -116,6 +116,7 @@ def replay(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settl
     force = m.sensor(FORCE_SENSORS[0]).adr[0] + np.arange(3)
     is_hand = scene.geom_mask(scene.ids.hand_geoms)
     peak, deepest, palm_peak, palm = 0.0, 0.0, 0.0, d.site_xpos[scene.ids.palm_site].copy()
+    dt = substeps * m.opt.timestep  # a control step
     for k, target in enumerate(targets):
         d.ctrl[scene.ids.hand_actuators] = target
         for _ in range(substeps):
@@ -123,11 +124,11 @@ def replay(scene: Scene, start: Start, targets: np.ndarray, substeps: int, settl
         peak = max(peak, float(np.linalg.norm(d.sensordata[force])))
         deepest = max(deepest, contact_depth(is_hand, d))
         if k >= settled_from:
-            palm_peak = max(palm_peak, float(np.linalg.norm(d.site_xpos[scene.ids.palm_site] - palm)))
+            palm_peak = max(palm_peak, float(np.linalg.norm(d.site_xpos[scene.ids.palm_site] - palm)) / dt)
         palm = d.site_xpos[scene.ids.palm_site].copy()
         if d.qpos[scene.ids.target_qpos] >= until:
-            return Replay(peak, deepest, k + 1, palm_peak / (substeps * m.opt.timestep))
-    return Replay(peak, deepest, None, palm_peak / (substeps * m.opt.timestep))
+            return Replay(peak, deepest, k + 1, palm_peak)
+    return Replay(peak, deepest, None, palm_peak)
 
 
 def pairs(scene: Scene) -> list[tuple[str, str]]:

@@ -34,20 +34,19 @@ def _train(run: Run, c: ReproduceConfig, out: Path) -> None:
     # main/ablation evaluate a base run's best_robust checkpoint; the appendix tables evaluate named epochs
     schedule = {"epochs": run.epochs, "seed": run.seed, "save_every": max(1, c.scaled(FINETUNE_EPOCHS) // 2),
                 "robust_every": ROBUST_EVERY if run.parent is None else 0}
-    ppo = {"num_envs": c.num_envs}
+    ppo, scene = {"num_envs": c.num_envs}, CONTACTS[c.contacts]
     if run.train_objects:  # no best_robust: the table reads the checkpoints along the budget
         objects, trajectories = _scaling_subset(c, out, run.train_objects)
-        spec = method_spec(run.method, objects, ppo, backend=c.backend, scene=CONTACTS[c.contacts],
+        spec = method_spec(run.method, objects, ppo, backend=c.backend, scene=scene,
                            schedule={**schedule, "save_every": c.scaling_epochs[0], "robust_every": 0})
         start_or_resume(spec, [folder], trajectory=trajectories, progress=False)
     elif run.generalist:
         objects, trajectories = dataset_objects(_dataset(c, out))
-        spec = method_spec(run.method, objects, ppo, backend=c.backend, scene=CONTACTS[c.contacts], holdout=c.holdout,
+        spec = method_spec(run.method, objects, ppo, backend=c.backend, scene=scene, holdout=c.holdout,
                            schedule=schedule)
         start_or_resume(spec, [folder], trajectory=trajectories, progress=False)
     elif run.parent is None:
-        spec = method_spec(run.method, run.object, ppo, backend=c.backend, scene=CONTACTS[c.contacts],
-                           schedule=schedule)
+        spec = method_spec(run.method, run.object, ppo, backend=c.backend, scene=scene, schedule=schedule)
         start_or_resume(spec, [folder], progress=False)  # new, interrupted or extended
     elif folder.exists() and folder.epoch_checkpoints():  # the next stage: the recorded fine-tune, longer
         spec = apply_overrides(folder.spec(), {f"schedule.{k}": v for k, v in schedule.items()})

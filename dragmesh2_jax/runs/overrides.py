@@ -198,18 +198,22 @@ WIDE_HAND: dict[str, Any] = {**WIDE, **reach(0.125, "hand")}
 #: drag's settled palm peak at x1 from the world's start (``relative_palm_speed``). Under lever 34 door 111's palm at x8
 #: was 1.26x its x1 pace (its translation residual's surge) where PALM_PACE did not bind (RULE.md).
 OWN_PACE_LIMIT = 1.1
-OWN_PACE: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, budget=0.01),
-                                                  load_budget=0.01)}
+
+
+def own_pace(cost: str) -> dict[str, Any]:
+    """Lever 34 with the palm's pace bounded by its prior's own (OWN_PACE_LIMIT), ``cost`` charged on 1% of steps."""
+    return {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, cost, 0.01), load_budget=0.01)}
+
+
+OWN_PACE = own_pace("rate")
 #: Lever 36: that bound on each episode's peak, not on a rate: a surge of a step or two in the heavy worlds cost lever
 #: 35 under 2% of its steps (door 111's palm at x8 0.18 m/s, 2.3x its unit): every step after an episode's palm first
 #: passed 1.1x its unit is charged, on at most 1% of steps, and the critic sees whether it has (RULE.md).
-OWN_PACE_PEAK: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, "peak", 0.01),
-                                                       load_budget=0.01)}
+OWN_PACE_PEAK = own_pace("peak")
 #: Lever 37: that peak charged to the horizon (HORIZON_BOUND's cost): door 111's palm under lever 36 surged in an
 #: episode's last 4-6 steps before success at x8 (the hand peeling off the bar as the door neared done), where a peak
 #: cost charges only the few steps left; now the episode also pays the steps it had left (RULE.md).
-OWN_PACE_HORIZON: dict[str, Any] = {**WIDE_HAND, **within(0.1, bounded(RELATIVE_PACE, OWN_PACE_LIMIT, "horizon", 0.01),
-                                                          load_budget=0.01)}
+OWN_PACE_HORIZON = own_pace("horizon")
 #: Lever 38: lever 37 trained to x12 (log-uniform over [1, 12]): door 111's surge is x8's alone (none past 0.078 m/s at
 #: x6) and x8 the top of [1, 8], so its bound's cost read 0 in every epoch; x8 inside the range (RULE.md).
 WIDER_RANGE = (1.0, 12.0)
